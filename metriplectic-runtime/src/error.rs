@@ -1,0 +1,101 @@
+//! The runtime's typed errors.
+//!
+//! Every fallible public function in this crate returns [`Result`]. Variants
+//! name the offending quantity precisely (which sample, which column, which
+//! coefficient) so that a user can fix their input without reading our code.
+
+use std::path::PathBuf;
+
+/// Errors of the metriplectic runtime.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A vector or matrix has the wrong length for the system.
+    #[error("{what}: expected length {expected}, got {found}")]
+    DimensionMismatch {
+        /// What was being checked (e.g. "state", "entropy coefficients").
+        what: String,
+        /// The length the system requires.
+        expected: usize,
+        /// The length that was given.
+        found: usize,
+    },
+    /// A value is NaN or infinite.
+    #[error("{what}: non-finite value {value} at index {index}")]
+    NonFinite {
+        /// What was being checked.
+        what: String,
+        /// Position of the offending value.
+        index: usize,
+        /// The value itself (NaN or ±inf).
+        value: f64,
+    },
+    /// The system declares no reference model.
+    #[error("system `{system}` declares no reference model (add a `reference {{ … }}` section to its `metriplectic!` block)")]
+    NoReference {
+        /// The system's name.
+        system: &'static str,
+    },
+    /// An I/O error, with the path involved.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file that could not be read or written.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Malformed JSON.
+    #[error("invalid JSON{}: {source}", context.as_ref().map(|c| format!(" in {c}")).unwrap_or_default())]
+    Json {
+        /// The file or item being parsed, when known.
+        context: Option<String>,
+        /// The underlying error.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A saved model belongs to another system or other bases.
+    #[error("model is for {found}, not for {expected}")]
+    WrongSystem {
+        /// Description of the system it was loaded into.
+        expected: String,
+        /// Description of the system it was saved from.
+        found: String,
+    },
+    /// Invalid configuration or argument.
+    #[error("invalid {what}: {reason}")]
+    InvalidArgument {
+        /// The parameter.
+        what: String,
+        /// Why it was rejected and what is accepted.
+        reason: String,
+    },
+}
+
+/// `Result` with the runtime's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Checks that `values` has length `expected`.
+pub(crate) fn check_len(what: &str, values: &[f64], expected: usize) -> Result<()> {
+    if values.len() == expected {
+        Ok(())
+    } else {
+        Err(Error::DimensionMismatch {
+            what: what.to_owned(),
+            expected,
+            found: values.len(),
+        })
+    }
+}
+
+/// Checks that every entry of `values` is finite.
+pub(crate) fn check_finite(what: &str, values: &[f64]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(Error::NonFinite {
+            what: what.to_owned(),
+            index,
+            value: values[index],
+        }),
+    }
+}

@@ -1,0 +1,64 @@
+//! # metriplectic-runtime
+//!
+//! Identification and simulation of *generalized metriplectic systems*
+//!
+//! ```text
+//! ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)),   K(x) ⪰ 0,
+//! ```
+//!
+//! Hamiltonian systems with dissipation whose free energy E = H + S never
+//! decreases (dE/dt = ∇Eᵀ K ∇E ≥ 0). The Poisson tensor Π and Hamiltonian H
+//! are known; the entropy S and the metric K are identified from measured
+//! samples (x, ẋ) by alternating a linear program (entropy search) and a
+//! sum-of-squares semidefinite program (metric search), both solved with
+//! Clarabel.
+//!
+//! A system is declared once with the [`metriplectic!`] macro, which checks it
+//! symbolically at compile time and generates the monomial tables, analytic
+//! gradients and per-sample assembly code as an implementation of
+//! [`MetriplecticSystem`].
+//!
+//! ```
+//! use metriplectic_runtime::prelude::*;
+//!
+//! metriplectic! {
+//!     /// Canonical oscillator whose free energy has a figure-eight zero set.
+//!     pub struct Oscillator;
+//!     state (q, p);
+//!     poisson = [[0, 1], [-1, 0]];
+//!     hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+//!     entropy degree 8;
+//!     metric degree 2;
+//!     reference {
+//!         entropy = -0.5 * (p^2 + 4*q^4 - 4*q^2)^2 - (0.5*p^2 + 0.5*q^2);
+//!         metric = [[1, 0], [0, 1]];
+//!     }
+//! }
+//!
+//! let model = Model::<Oscillator>::reference().unwrap();
+//! let mut xdot = [0.0; 2];
+//! model.vector_field(&[0.3, -0.2], &mut xdot).unwrap();
+//! assert!(model.free_energy_rate(&[0.3, -0.2]).unwrap() >= 0.0);
+//! ```
+
+// Link Debian's OpenBLAS for Clarabel's PSD cone (see DESIGN.md, dependency recipe).
+extern crate blas_src as _;
+extern crate lapack_src as _;
+extern crate openblas_src as _;
+
+pub mod error;
+pub mod model;
+pub mod system;
+
+pub use error::{Error, Result};
+pub use metriplectic_macros::metriplectic;
+pub use model::Model;
+pub use system::{MetriplecticSystem, SosTables};
+
+/// The names most programs need: `use metriplectic_runtime::prelude::*;`.
+pub mod prelude {
+    pub use crate::error::{Error, Result};
+    pub use crate::metriplectic;
+    pub use crate::model::Model;
+    pub use crate::system::MetriplecticSystem;
+}

@@ -1,0 +1,226 @@
+//! A concrete model: entropy and metric coefficients for a system.
+//!
+//! A [`Model`] pairs a [`MetriplecticSystem`] (the known Π and H, and the
+//! bases) with coefficient vectors ψ (entropy) and θ (metric), and evaluates
+//! the identified dynamics ẋ = (Π + K)(∇H + ∇S).
+
+use std::fmt;
+use std::marker::PhantomData;
+
+use crate::error::{check_finite, check_len, Error, Result};
+use crate::system::MetriplecticSystem;
+
+/// Entropy and metric coefficients of a system `S`.
+///
+/// Evaluation methods check the state's length and return
+/// [`Error::DimensionMismatch`] instead of panicking; they never allocate
+/// beyond their result.
+pub struct Model<S: MetriplecticSystem> {
+    entropy: Vec<f64>,
+    metric: Vec<f64>,
+    system: PhantomData<S>,
+}
+
+// Manual impls: `S` itself need not be `Clone`/`PartialEq` for the model to be.
+impl<S: MetriplecticSystem> Clone for Model<S> {
+    fn clone(&self) -> Self {
+        Self {
+            entropy: self.entropy.clone(),
+            metric: self.metric.clone(),
+            system: PhantomData,
+        }
+    }
+}
+
+impl<S: MetriplecticSystem> PartialEq for Model<S> {
+    fn eq(&self, other: &Self) -> bool {
+        self.entropy == other.entropy && self.metric == other.metric
+    }
+}
+
+impl<S: MetriplecticSystem> fmt::Debug for Model<S> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Model")
+            .field("system", &S::NAME)
+            .field("entropy", &self.entropy)
+            .field("metric", &self.metric)
+            .finish()
+    }
+}
+
+impl<S: MetriplecticSystem> Model<S> {
+    /// A model from entropy coefficients ψ (`S::entropy_coefficient_count()`)
+    /// and metric coefficients θ (`S::metric_coefficient_count()`).
+    ///
+    /// Rejects wrong lengths and non-finite values.
+    pub fn new(entropy: Vec<f64>, metric: Vec<f64>) -> Result<Self> {
+        check_len(
+            "entropy coefficients",
+            &entropy,
+            S::entropy_coefficient_count(),
+        )?;
+        check_len(
+            "metric coefficients",
+            &metric,
+            S::metric_coefficient_count(),
+        )?;
+        check_finite("entropy coefficients", &entropy)?;
+        check_finite("metric coefficients", &metric)?;
+        Ok(Self {
+            entropy,
+            metric,
+            system: PhantomData,
+        })
+    }
+
+    /// The reference model declared in the system's `reference { … }` section.
+    pub fn reference() -> Result<Self> {
+        match (S::REFERENCE_ENTROPY, S::REFERENCE_METRIC) {
+            (Some(entropy), Some(metric)) => Self::new(entropy.to_vec(), metric.to_vec()),
+            _ => Err(Error::NoReference { system: S::NAME }),
+        }
+    }
+
+    /// The identity metric K = I with the given entropy coefficients.
+    pub fn with_identity_metric(entropy: Vec<f64>) -> Result<Self> {
+        Self::new(entropy, identity_metric::<S>(1.0))
+    }
+
+    /// Entropy coefficients ψ, in the order of `S::ENTROPY_EXPONENTS`.
+    pub fn entropy_coefficients(&self) -> &[f64] {
+        &self.entropy
+    }
+
+    /// Metric coefficients θ, laid out as documented on [`crate::system`].
+    pub fn metric_coefficients(&self) -> &[f64] {
+        &self.metric
+    }
+
+    /// Replaces the entropy coefficients (same checks as [`Model::new`]).
+    pub fn set_entropy_coefficients(&mut self, entropy: Vec<f64>) -> Result<()> {
+        check_len(
+            "entropy coefficients",
+            &entropy,
+            S::entropy_coefficient_count(),
+        )?;
+        check_finite("entropy coefficients", &entropy)?;
+        self.entropy = entropy;
+        Ok(())
+    }
+
+    /// Replaces the metric coefficients (same checks as [`Model::new`]).
+    pub fn set_metric_coefficients(&mut self, metric: Vec<f64>) -> Result<()> {
+        check_len(
+            "metric coefficients",
+            &metric,
+            S::metric_coefficient_count(),
+        )?;
+        check_finite("metric coefficients", &metric)?;
+        self.metric = metric;
+        Ok(())
+    }
+
+    /// Entropy S(x).
+    pub fn entropy(&self, x: &[f64]) -> Result<f64> {
+        check_state::<S>(x)?;
+        Ok(S::entropy_value(x, &self.entropy))
+    }
+
+    /// Free energy E(x) = H(x) + S(x).
+    pub fn free_energy(&self, x: &[f64]) -> Result<f64> {
+        check_state::<S>(x)?;
+        Ok(S::hamiltonian(x) + S::entropy_value(x, &self.entropy))
+    }
+
+    /// ∇E(x) = ∇H(x) + ∇S(x) into `grad` (length n).
+    pub fn free_energy_gradient(&self, x: &[f64], grad: &mut [f64]) -> Result<()> {
+        check_state::<S>(x)?;
+        check_len("gradient output", grad, S::DIM)?;
+        self.free_energy_gradient_unchecked(x, grad);
+        Ok(())
+    }
+
+    /// K(x) into `metric` (n × n, row-major).
+    pub fn metric(&self, x: &[f64], metric: &mut [f64]) -> Result<()> {
+        check_state::<S>(x)?;
+        check_len("metric output", metric, S::DIM * S::DIM)?;
+        S::metric_value(x, &self.metric, metric);
+        Ok(())
+    }
+
+    /// The vector field f(x) = (Π(x) + K(x)) ∇E(x) into `xdot` (length n).
+    pub fn vector_field(&self, x: &[f64], xdot: &mut [f64]) -> Result<()> {
+        check_state::<S>(x)?;
+        check_len("vector field output", xdot, S::DIM)?;
+        self.vector_field_unchecked(x, xdot);
+        Ok(())
+    }
+
+    /// dE/dt = ∇Eᵀ K ∇E at x: non-negative whenever K(x) ⪰ 0.
+    pub fn free_energy_rate(&self, x: &[f64]) -> Result<f64> {
+        check_state::<S>(x)?;
+        let n = S::DIM;
+        let mut grad = vec![0.0; n];
+        let mut metric = vec![0.0; n * n];
+        self.free_energy_gradient_unchecked(x, &mut grad);
+        S::metric_value(x, &self.metric, &mut metric);
+        Ok(quadratic_form(&metric, &grad))
+    }
+
+    /// ∇E without length checks: callers have checked `x` and `grad`.
+    pub(crate) fn free_energy_gradient_unchecked(&self, x: &[f64], grad: &mut [f64]) {
+        S::entropy_gradient(x, &self.entropy, grad);
+        let mut grad_h = [0.0; 16];
+        if S::DIM <= grad_h.len() {
+            S::hamiltonian_gradient(x, &mut grad_h[..S::DIM]);
+            grad.iter_mut().zip(&grad_h).for_each(|(g, h)| *g += h);
+        } else {
+            let mut grad_h = vec![0.0; S::DIM];
+            S::hamiltonian_gradient(x, &mut grad_h);
+            grad.iter_mut().zip(&grad_h).for_each(|(g, h)| *g += h);
+        }
+    }
+
+    /// f(x) without length checks: callers have checked `x` and `xdot`.
+    pub(crate) fn vector_field_unchecked(&self, x: &[f64], xdot: &mut [f64]) {
+        let n = S::DIM;
+        let mut grad = vec![0.0; n];
+        let mut operator = vec![0.0; n * n];
+        let mut metric = vec![0.0; n * n];
+        self.free_energy_gradient_unchecked(x, &mut grad);
+        S::poisson(x, &mut operator);
+        S::metric_value(x, &self.metric, &mut metric);
+        operator.iter_mut().zip(&metric).for_each(|(m, k)| *m += k);
+        for (j, out) in xdot.iter_mut().enumerate() {
+            *out = operator[j * n..(j + 1) * n]
+                .iter()
+                .zip(&grad)
+                .map(|(m, g)| m * g)
+                .sum();
+        }
+    }
+}
+
+/// θ of the constant metric K = c·I for system `S`.
+pub fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {
+    let n = S::DIM;
+    let basis = S::METRIC_EXPONENTS.len();
+    let mut theta = vec![0.0; S::metric_coefficient_count()];
+    for j in 0..n {
+        // The metric basis starts with the constant monomial.
+        theta[crate::system::metric_pair_index(n, j, j) * basis] = scale;
+    }
+    theta
+}
+
+/// vᵀ A v for a row-major square `a`.
+pub(crate) fn quadratic_form(a: &[f64], v: &[f64]) -> f64 {
+    let n = v.len();
+    (0..n)
+        .map(|j| v[j] * (0..n).map(|k| a[j * n + k] * v[k]).sum::<f64>())
+        .sum()
+}
+
+fn check_state<S: MetriplecticSystem>(x: &[f64]) -> Result<()> {
+    check_len("state", x, S::DIM)
+}

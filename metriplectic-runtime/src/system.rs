@@ -1,0 +1,173 @@
+//! The compile-time description of a system: what `metriplectic!` generates.
+//!
+//! A [`MetriplecticSystem`] is a type (usually a unit struct) that carries the
+//! known parts of a generalized metriplectic system — the state, the Poisson
+//! tensor Π(x), the Hamiltonian H(x) — together with the polynomial bases in
+//! which the unknown entropy S(x) and metric K(x) are sought, and straight-line
+//! code that evaluates all of them. Users do not implement it by hand; the
+//! `metriplectic!` macro does, after checking the system symbolically.
+//!
+//! # Conventions
+//!
+//! * States are slices of length [`DIM`](MetriplecticSystem::DIM) in the order
+//!   of [`STATE_NAMES`](MetriplecticSystem::STATE_NAMES).
+//! * Matrices are dense, row-major slices: entry (j, k) of an n×m matrix is at
+//!   `j * m + k`.
+//! * Monomials are exponent vectors, one exponent per state variable, listed in
+//!   **graded lexicographic** order: by total degree, then, within a degree,
+//!   larger exponents of earlier variables first. For x = (q, p) at degree ≤ 2:
+//!   `1, q, p, q², q p, p²`.
+//! * Entropy: S(x) = Σₖ ψₖ φₖ(x) over [`ENTROPY_EXPONENTS`](MetriplecticSystem::ENTROPY_EXPONENTS),
+//!   all monomials of degree 1..=r. The constant monomial is left out: its
+//!   gradient is zero, so its coefficient cannot be identified from (x, ẋ).
+//! * Metric: K(x)ⱼₖ = Σₐ θⱼₖ,ₐ φₐ(x) over [`METRIC_EXPONENTS`](MetriplecticSystem::METRIC_EXPONENTS),
+//!   all monomials of degree 0..=s, with θⱼₖ = θₖⱼ. The coefficient vector θ
+//!   stores the upper-triangle pairs (j ≤ k) in row-major order, each pair a
+//!   contiguous block of `METRIC_EXPONENTS.len()` coefficients: see
+//!   [`metric_pair_index`].
+//!
+//! # Panics
+//!
+//! The evaluation functions take slices whose lengths are fixed by the system
+//! (documented on each function) and panic if a length is wrong, exactly like
+//! [`slice::copy_from_slice`]. Everything in this crate that calls them checks
+//! the lengths of user data first and reports a typed error instead.
+
+/// The sum-of-squares (SOS) certificate tables of the metric basis.
+///
+/// With m(x) the SOS basis monomials and Z(x) = I_n ⊗ m(x), a metric written as
+/// K(x) = Z(x)ᵀ Q Z(x) with a Gram matrix Q ⪰ 0 is positive semidefinite for
+/// every x. Matching the coefficient of yⱼ yₖ x^α on both sides gives
+///
+/// θⱼₖ,α = Σ_{(β, γ) ∈ `matching[α]`} Q[(j, β), (k, γ)],
+///
+/// where the Gram index of (j, β) is `j * exponents.len() + β`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SosTables {
+    /// The SOS basis monomials m(x), graded lexicographic.
+    pub exponents: &'static [&'static [u32]],
+    /// For each metric monomial α (indexing
+    /// [`MetriplecticSystem::METRIC_EXPONENTS`]), the pairs (β, γ) of indices
+    /// into [`exponents`](Self::exponents) with β + γ = α. Pairs are ordered;
+    /// both (β, γ) and (γ, β) appear when β ≠ γ. An empty list means the
+    /// coefficient is forced to zero by the certificate.
+    pub matching: &'static [&'static [(u16, u16)]],
+}
+
+/// A generalized metriplectic system ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)) with
+/// known Π and H and polynomial bases for the unknown S and K.
+///
+/// Implemented by the `metriplectic!` macro; see the crate documentation for
+/// the DSL and the [module documentation](self) for the conventions.
+pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + 'static {
+    /// The system's name, as declared in the macro.
+    const NAME: &'static str;
+    /// State dimension n.
+    const DIM: usize;
+    /// Names of the state variables, in state order.
+    const STATE_NAMES: &'static [&'static str];
+    /// Entropy degree r: the entropy basis holds the monomials of degree 1..=r.
+    const ENTROPY_DEGREE: u32;
+    /// Metric degree s (even): each metric entry spans the monomials of degree 0..=s.
+    const METRIC_DEGREE: u32;
+    /// Entropy basis φ_r, graded lexicographic, without the constant monomial.
+    const ENTROPY_EXPONENTS: &'static [&'static [u32]];
+    /// Metric basis φ_s, graded lexicographic, starting with the constant monomial.
+    const METRIC_EXPONENTS: &'static [&'static [u32]];
+    /// SOS tables over the full half-degree basis (all monomials of degree
+    /// ≤ s/2). Kept for region-limited certificates, where nothing collapses.
+    const SOS_FULL: SosTables;
+    /// SOS tables after facial reduction, used by the metric search.
+    ///
+    /// For the two-sided global constraint 0 ⪯ K(x) ⪯ ηI the Gram matrices of
+    /// K and of ηI − K sum to a constant, which forces every row of a
+    /// non-constant monomial to zero in both: the basis reduces to the
+    /// constant monomial and the certificate to 0 ⪯ K₀ ⪯ ηI.
+    const SOS_REDUCED: SosTables;
+    /// Entropy coefficients ψ of the declared reference model, if any
+    /// (its constant term, which has no effect on the dynamics, is dropped).
+    const REFERENCE_ENTROPY: Option<&'static [f64]>;
+    /// Metric coefficients θ of the declared reference model, if any.
+    const REFERENCE_METRIC: Option<&'static [f64]>;
+
+    /// H(x). `x.len() == DIM`.
+    fn hamiltonian(x: &[f64]) -> f64;
+    /// ∇H(x) into `grad` (`DIM`).
+    fn hamiltonian_gradient(x: &[f64], grad: &mut [f64]);
+    /// Π(x) into `poisson` (`DIM × DIM`, row-major).
+    fn poisson(x: &[f64], poisson: &mut [f64]);
+    /// Entropy features φ_r(x) into `features` (`ENTROPY_EXPONENTS.len()`).
+    fn entropy_features(x: &[f64], features: &mut [f64]);
+    /// Jacobian of the entropy features into `jacobian`
+    /// (`ENTROPY_EXPONENTS.len() × DIM`, row-major: row k is ∇φₖ(x)).
+    fn entropy_jacobian(x: &[f64], jacobian: &mut [f64]);
+    /// Metric features φ_s(x) into `features` (`METRIC_EXPONENTS.len()`).
+    fn metric_features(x: &[f64], features: &mut [f64]);
+
+    /// S(x) = Σₖ ψₖ φₖ(x) for entropy coefficients ψ
+    /// (`ENTROPY_EXPONENTS.len()`), without allocating.
+    fn entropy_value(x: &[f64], coefficients: &[f64]) -> f64;
+    /// ∇S(x) = J(x)ᵀ ψ into `grad` (`DIM`), without allocating.
+    fn entropy_gradient(x: &[f64], coefficients: &[f64], grad: &mut [f64]);
+    /// K(x) for metric coefficients θ (`metric_coefficient_count()`) into
+    /// `metric` (`DIM × DIM`, row-major, both triangles), without allocating.
+    fn metric_value(x: &[f64], coefficients: &[f64], metric: &mut [f64]);
+
+    /// Entropy-search rows of one sample, with the metric fixed.
+    ///
+    /// Given K(x) in `metric` (`DIM × DIM`), writes M J(x)ᵀ into `block`
+    /// (`DIM × ENTROPY_EXPONENTS.len()`, row-major) and M ∇H(x) into `drift`
+    /// (`DIM`), where M = Π(x) + K(x). The residual of the sample is then
+    /// ẋ − drift − block · ψ, linear in ψ.
+    fn entropy_block(x: &[f64], metric: &[f64], block: &mut [f64], drift: &mut [f64]);
+
+    /// Metric-search rows of one sample, with the entropy fixed.
+    ///
+    /// Given g = ∇H(x) + ∇S(x) in `gradient` (`DIM`), writes the matrix of the
+    /// linear map θ ↦ K(x; θ) g into `block` (`DIM × metric_coefficient_count()`,
+    /// row-major) and Π(x) g into `drift` (`DIM`). The residual of the sample is
+    /// then ẋ − drift − block · θ, linear in θ.
+    fn metric_block(x: &[f64], gradient: &[f64], block: &mut [f64], drift: &mut [f64]);
+
+    /// Number of entropy coefficients p = `ENTROPY_EXPONENTS.len()`.
+    fn entropy_coefficient_count() -> usize {
+        Self::ENTROPY_EXPONENTS.len()
+    }
+
+    /// Number of metric coefficients: n(n+1)/2 upper-triangle pairs times the
+    /// metric basis size.
+    fn metric_coefficient_count() -> usize {
+        Self::DIM * (Self::DIM + 1) / 2 * Self::METRIC_EXPONENTS.len()
+    }
+}
+
+/// Position of the upper-triangle pair (j, k) (in either order) among the
+/// n(n+1)/2 pairs of an n×n symmetric matrix, row-major.
+///
+/// The metric coefficients of pair (j, k) occupy
+/// `pair * basis_len .. (pair + 1) * basis_len` in θ.
+pub fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
+    let (j, k) = if j <= k { (j, k) } else { (k, j) };
+    // Rows 0..j contribute n, n-1, …, n-j+1 pairs.
+    j * dim - j * (j.saturating_sub(1)) / 2 + (k - j)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pair_index_enumerates_upper_triangle_row_major() {
+        for dim in 1..6 {
+            let mut expected = 0;
+            for j in 0..dim {
+                for k in j..dim {
+                    assert_eq!(metric_pair_index(dim, j, k), expected);
+                    assert_eq!(metric_pair_index(dim, k, j), expected);
+                    expected += 1;
+                }
+            }
+            assert_eq!(expected, dim * (dim + 1) / 2);
+        }
+    }
+}
