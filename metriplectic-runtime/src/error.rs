@@ -62,6 +62,9 @@ pub enum Error {
         /// Description of the system it was saved from.
         found: String,
     },
+    /// Malformed identification data.
+    #[error(transparent)]
+    Dataset(#[from] crate::dataset::DatasetError),
     /// Invalid configuration or argument.
     #[error("invalid {what}: {reason}")]
     InvalidArgument {

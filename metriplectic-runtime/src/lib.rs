@@ -46,10 +46,15 @@ extern crate blas_src as _;
 extern crate lapack_src as _;
 extern crate openblas_src as _;
 
+// Lets the macro's `::metriplectic_runtime::…` paths resolve inside this crate's own tests.
+extern crate self as metriplectic_runtime;
+
+pub mod dataset;
 pub mod error;
 pub mod model;
 pub mod system;
 
+pub use dataset::{Dataset, DatasetError};
 pub use error::{Error, Result};
 pub use metriplectic_macros::metriplectic;
 pub use model::Model;
@@ -57,6 +62,7 @@ pub use system::{MetriplecticSystem, SosTables};
 
 /// The names most programs need: `use metriplectic_runtime::prelude::*;`.
 pub mod prelude {
+    pub use crate::dataset::Dataset;
     pub use crate::error::{Error, Result};
     pub use crate::metriplectic;
     pub use crate::model::Model;

@@ -1,0 +1,302 @@
+//! Identification data: samples (xᵢ, ẋᵢ) of a system's state and its time
+//! derivative.
+
+use crate::error::{Error, Result};
+
+/// Validated samples (xᵢ, ẋᵢ), i = 0..m, of an n-dimensional state.
+///
+/// Stored row-major: sample i's state is `states[i*n..(i+1)*n]`. Construction
+/// guarantees at least one sample, matching lengths and finite values, so the
+/// solvers never see malformed data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    dim: usize,
+    states: Vec<f64>,
+    derivatives: Vec<f64>,
+}
+
+/// Errors specific to dataset construction, reported with the sample index and
+/// state column of the first offending value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum DatasetError {
+    /// No samples were given.
+    #[error("dataset is empty: at least one sample (x, ẋ) is required")]
+    Empty,
+    /// The state dimension is zero.
+    #[error("state dimension must be at least 1")]
+    ZeroDimension,
+    /// A flat buffer's length is not a multiple of the dimension.
+    #[error("{what} buffer has {len} values, not a multiple of the state dimension {dim}")]
+    RaggedBuffer {
+        /// "states" or "derivatives".
+        what: &'static str,
+        /// Length of the buffer.
+        len: usize,
+        /// State dimension.
+        dim: usize,
+    },
+    /// States and derivatives disagree in sample count.
+    #[error("{states} states but {derivatives} derivatives: every state needs its derivative")]
+    CountMismatch {
+        /// Number of states.
+        states: usize,
+        /// Number of derivatives.
+        derivatives: usize,
+    },
+    /// One sample has the wrong number of columns.
+    #[error("sample {sample}: {what} has {found} columns, the system has {expected}")]
+    WrongWidth {
+        /// Sample index (0-based).
+        sample: usize,
+        /// "state" or "derivative".
+        what: &'static str,
+        /// Columns expected.
+        expected: usize,
+        /// Columns found.
+        found: usize,
+    },
+    /// A NaN or infinite value.
+    #[error("sample {sample}, {what} column {column}: non-finite value {value}")]
+    NonFinite {
+        /// Sample index (0-based).
+        sample: usize,
+        /// "state" or "derivative".
+        what: &'static str,
+        /// State column (0-based).
+        column: usize,
+        /// The offending value.
+        value: f64,
+    },
+}
+
+impl Dataset {
+    /// A dataset from flat row-major buffers of states and derivatives.
+    pub fn from_flat(
+        dim: usize,
+        states: Vec<f64>,
+        derivatives: Vec<f64>,
+    ) -> Result<Self, DatasetError> {
+        if dim == 0 {
+            return Err(DatasetError::ZeroDimension);
+        }
+        for (what, buffer) in [("states", &states), ("derivatives", &derivatives)] {
+            if buffer.len() % dim != 0 {
+                return Err(DatasetError::RaggedBuffer {
+                    what,
+                    len: buffer.len(),
+                    dim,
+                });
+            }
+        }
+        let count = states.len() / dim;
+        if count != derivatives.len() / dim {
+            return Err(DatasetError::CountMismatch {
+                states: count,
+                derivatives: derivatives.len() / dim,
+            });
+        }
+        if count == 0 {
+            return Err(DatasetError::Empty);
+        }
+        for (what, buffer) in [("state", &states), ("derivative", &derivatives)] {
+            if let Some(pos) = buffer.iter().position(|v| !v.is_finite()) {
+                return Err(DatasetError::NonFinite {
+                    sample: pos / dim,
+                    what,
+                    column: pos % dim,
+                    value: buffer[pos],
+                });
+            }
+        }
+        Ok(Self {
+            dim,
+            states,
+            derivatives,
+        })
+    }
+
+    /// A dataset from per-sample rows (each of length `dim`).
+    pub fn from_rows<X, D>(
+        dim: usize,
+        states: &[X],
+        derivatives: &[D],
+    ) -> Result<Self, DatasetError>
+    where
+        X: AsRef<[f64]>,
+        D: AsRef<[f64]>,
+    {
+        if states.len() != derivatives.len() {
+            return Err(DatasetError::CountMismatch {
+                states: states.len(),
+                derivatives: derivatives.len(),
+            });
+        }
+        let mut flat_x = Vec::with_capacity(states.len() * dim);
+        let mut flat_d = Vec::with_capacity(states.len() * dim);
+        for (sample, (x, d)) in states.iter().zip(derivatives).enumerate() {
+            for (what, row, flat) in [
+                ("state", x.as_ref(), &mut flat_x),
+                ("derivative", d.as_ref(), &mut flat_d),
+            ] {
+                if row.len() != dim {
+                    return Err(DatasetError::WrongWidth {
+                        sample,
+                        what,
+                        expected: dim,
+                        found: row.len(),
+                    });
+                }
+                flat.extend_from_slice(row);
+            }
+        }
+        Self::from_flat(dim, flat_x, flat_d)
+    }
+
+    /// State dimension n.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// Number of samples m (at least 1).
+    pub fn len(&self) -> usize {
+        self.states.len() / self.dim
+    }
+
+    /// Always `false`: a dataset holds at least one sample.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// State xᵢ. Panics if `i >= len()`, like slice indexing.
+    pub fn state(&self, i: usize) -> &[f64] {
+        &self.states[i * self.dim..(i + 1) * self.dim]
+    }
+
+    /// Derivative ẋᵢ. Panics if `i >= len()`, like slice indexing.
+    pub fn derivative(&self, i: usize) -> &[f64] {
+        &self.derivatives[i * self.dim..(i + 1) * self.dim]
+    }
+
+    /// All states, row-major.
+    pub fn states(&self) -> &[f64] {
+        &self.states
+    }
+
+    /// All derivatives, row-major.
+    pub fn derivatives(&self) -> &[f64] {
+        &self.derivatives
+    }
+
+    /// Iterator over (xᵢ, ẋᵢ).
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = (&[f64], &[f64])> + '_ {
+        self.states
+            .chunks_exact(self.dim)
+            .zip(self.derivatives.chunks_exact(self.dim))
+    }
+
+    /// The samples at `indices`, in that order (repeats allowed).
+    ///
+    /// Errors if `indices` is empty or names a sample past the end.
+    pub fn select(&self, indices: &[usize]) -> Result<Self> {
+        if let Some(&bad) = indices.iter().find(|&&i| i >= self.len()) {
+            return Err(Error::InvalidArgument {
+                what: "sample index".to_owned(),
+                reason: format!(
+                    "{bad} is out of range for a dataset of {} samples",
+                    self.len()
+                ),
+            });
+        }
+        let mut states = Vec::with_capacity(indices.len() * self.dim);
+        let mut derivatives = Vec::with_capacity(indices.len() * self.dim);
+        for &i in indices {
+            states.extend_from_slice(self.state(i));
+            derivatives.extend_from_slice(self.derivative(i));
+        }
+        Ok(Self::from_flat(self.dim, states, derivatives)?)
+    }
+
+    /// Appends the samples of `other` (same dimension).
+    pub fn extend(&mut self, other: &Dataset) -> Result<()> {
+        if other.dim != self.dim {
+            return Err(Error::DimensionMismatch {
+                what: "appended dataset".to_owned(),
+                expected: self.dim,
+                found: other.dim,
+            });
+        }
+        self.states.extend_from_slice(&other.states);
+        self.derivatives.extend_from_slice(&other.derivatives);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_non_finite_with_sample_and_column() {
+        let err = Dataset::from_flat(2, vec![0.0, 1.0, 2.0, f64::NAN], vec![0.0; 4]).unwrap_err();
+        assert!(matches!(
+            err,
+            DatasetError::NonFinite {
+                sample: 1,
+                column: 1,
+                what: "state",
+                ..
+            }
+        ));
+        let err =
+            Dataset::from_flat(2, vec![0.0; 4], vec![0.0, f64::INFINITY, 0.0, 0.0]).unwrap_err();
+        assert!(matches!(
+            err,
+            DatasetError::NonFinite {
+                sample: 0,
+                column: 1,
+                what: "derivative",
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn rejects_empty_ragged_and_mismatched() {
+        assert_eq!(
+            Dataset::from_flat(2, vec![], vec![]),
+            Err(DatasetError::Empty)
+        );
+        assert!(matches!(
+            Dataset::from_flat(2, vec![0.0; 3], vec![0.0; 3]),
+            Err(DatasetError::RaggedBuffer { what: "states", .. })
+        ));
+        assert!(matches!(
+            Dataset::from_flat(2, vec![0.0; 4], vec![0.0; 2]),
+            Err(DatasetError::CountMismatch {
+                states: 2,
+                derivatives: 1
+            })
+        ));
+        let rows: Vec<Vec<f64>> = vec![vec![0.0, 1.0], vec![0.0]];
+        assert!(matches!(
+            Dataset::from_rows(2, &rows, &rows),
+            Err(DatasetError::WrongWidth {
+                sample: 1,
+                what: "state",
+                expected: 2,
+                found: 1
+            })
+        ));
+    }
+
+    #[test]
+    fn select_keeps_order_and_checks_range() {
+        let data = Dataset::from_flat(1, vec![1.0, 2.0, 3.0], vec![4.0, 5.0, 6.0]).unwrap();
+        let picked = data.select(&[2, 0, 2]).unwrap();
+        assert_eq!(picked.states(), &[3.0, 1.0, 3.0]);
+        assert_eq!(picked.derivatives(), &[6.0, 4.0, 6.0]);
+        assert!(data.select(&[3]).is_err());
+        assert!(data.select(&[]).is_err());
+    }
+}
