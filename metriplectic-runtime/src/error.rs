@@ -65,6 +65,12 @@ pub enum Error {
     /// Malformed identification data.
     #[error(transparent)]
     Dataset(#[from] crate::dataset::DatasetError),
+    /// A simulation stopped early (step size, step budget, stiffness, NaN).
+    #[error(transparent)]
+    Simulation(#[from] crate::simulate::SimulationError),
+    /// Malformed trajectory CSV, with line and column.
+    #[error(transparent)]
+    Csv(#[from] crate::csv_io::CsvError),
     /// Invalid configuration or argument.
     #[error("invalid {what}: {reason}")]
     InvalidArgument {
@@ -73,6 +79,30 @@ pub enum Error {
         /// Why it was rejected and what is accepted.
         reason: String,
     },
+    /// A conic problem could not be handed to Clarabel (malformed assembly).
+    #[error("solver setup failed: {reason}")]
+    Solver {
+        /// What went wrong.
+        reason: String,
+    },
+    /// Identification could not make any progress (every solve failed).
+    #[error("identification failed after {iterations} iteration(s): {reason}")]
+    IdentificationFailed {
+        /// Iterations run before giving up.
+        iterations: usize,
+        /// What failed (solver statuses).
+        reason: String,
+    },
+    /// Refused to overwrite an existing file.
+    #[error("{path}: file exists; refusing to overwrite it (ask for overwrite explicitly)")]
+    FileExists {
+        /// The existing file.
+        path: PathBuf,
+    },
+    /// A figure could not be made (feature `plot`).
+    #[cfg(feature = "plot")]
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
 }
 
 /// `Result` with the runtime's [`Error`].

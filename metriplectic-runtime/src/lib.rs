@@ -49,16 +49,36 @@ extern crate openblas_src as _;
 // Lets the macro's `::metriplectic_runtime::…` paths resolve inside this crate's own tests.
 extern crate self as metriplectic_runtime;
 
+pub mod conic;
+pub mod cost;
+pub mod csv_io;
 pub mod dataset;
+pub mod derivative;
+pub mod diagnostics;
+pub mod entropy_search;
 pub mod error;
+pub mod metric_search;
 pub mod model;
+#[cfg(feature = "plot")]
+pub mod plot;
+pub mod simulate;
+pub mod synthesize;
 pub mod system;
+#[cfg(test)]
+mod test_system;
+pub mod trajectory;
 
+pub use conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
+pub use cost::{model_cost, Cost};
 pub use dataset::{Dataset, DatasetError};
+pub use entropy_search::{entropy_search, EntropySearch, EntropySearchOptions};
 pub use error::{Error, Result};
+pub use metric_search::{metric_search, MetricSearch, MetricSearchOptions, SosBasis};
 pub use metriplectic_macros::metriplectic;
 pub use model::Model;
+pub use simulate::{simulate, OutputTimes, Simulation, SimulationError, SimulationOptions};
 pub use system::{MetriplecticSystem, SosTables};
+pub use trajectory::Trajectory;
 
 /// The names most programs need: `use metriplectic_runtime::prelude::*;`.
 pub mod prelude {
