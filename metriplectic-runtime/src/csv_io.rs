@@ -1,0 +1,695 @@
+//! Trajectories as CSV files: measured or simulated states over time.
+//!
+//! # Format
+//!
+//! Comma-separated, one header line, then one row per sample:
+//!
+//! ```text
+//! trajectory,t,q,p,dq,dp
+//! run1,0,1.2,0,0.3,-1.1
+//! run1,0.05,1.21,-0.06,0.28,-1.12
+//! run2,0,-0.4,0.9,…
+//! ```
+//!
+//! * `t` — the time stamp (required). Within a trajectory, times must
+//!   strictly increase.
+//! * one column per state variable, named exactly as the system's
+//!   [`STATE_NAMES`](crate::MetriplecticSystem::STATE_NAMES) (required).
+//! * `d<name>` for each state variable — its time derivative (optional: all
+//!   of them or none). Without them, estimate derivatives with
+//!   [`crate::derivative`].
+//! * `trajectory` — an identifier (any non-empty text) when the file holds
+//!   several trajectories (optional; without it the file is one trajectory).
+//!   The rows of one trajectory must be contiguous.
+//!
+//! Columns may come in any order. Cells are trimmed of surrounding spaces.
+//! Numbers use Rust's `f64` syntax (`1`, `-2.5`, `1e-3`); NaN and infinities
+//! are rejected. Every error names the line (1-based, the header is line 1)
+//! and, for a cell, the column (1-based) and its header name.
+//!
+//! Writing uses the shortest text that reads back to the identical `f64`
+//! (Rust's `{}` formatting), so a write–read round trip is exact. Existing
+//! files are only replaced with [`WriteMode::Overwrite`].
+
+use std::collections::HashMap;
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Read, Write};
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::system::MetriplecticSystem;
+use crate::trajectory::Trajectory;
+
+/// Name of the time column.
+pub const TIME_COLUMN: &str = "t";
+/// Name of the optional trajectory-identifier column.
+pub const TRAJECTORY_COLUMN: &str = "trajectory";
+/// Prefix of derivative columns: the derivative of `q` is `dq`.
+pub const DERIVATIVE_PREFIX: &str = "d";
+
+/// Malformed trajectory CSV. Lines are 1-based with the header on line 1;
+/// columns are 1-based.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CsvError {
+    /// The input has no header line.
+    #[error("empty input: expected a header line with the columns {expected}")]
+    NoHeader {
+        /// The columns the system expects.
+        expected: String,
+    },
+    /// The header has no data rows after it.
+    #[error("no data rows after the header (line 1)")]
+    NoRows,
+    /// Required columns are absent.
+    #[error(
+        "line 1: missing column(s) {}; expected columns: {expected}",
+        quoted(missing)
+    )]
+    MissingColumns {
+        /// The missing names.
+        missing: Vec<String>,
+        /// The columns the system expects.
+        expected: String,
+    },
+    /// Columns the system does not know.
+    #[error(
+        "line 1: unknown column(s) {}; expected columns: {expected}",
+        quoted(unknown)
+    )]
+    UnknownColumns {
+        /// The unknown names.
+        unknown: Vec<String>,
+        /// The columns the system expects.
+        expected: String,
+    },
+    /// A column name appears twice.
+    #[error("line 1: column `{name}` appears twice (columns {first} and {second})")]
+    DuplicateColumn {
+        /// The repeated name.
+        name: String,
+        /// First position (1-based).
+        first: usize,
+        /// Second position (1-based).
+        second: usize,
+    },
+    /// Some but not all derivative columns are present.
+    #[error(
+        "line 1: derivative columns must be all present or all absent; found {}, missing {}",
+        quoted(present),
+        quoted(missing)
+    )]
+    PartialDerivatives {
+        /// Derivative columns found.
+        present: Vec<String>,
+        /// Derivative columns missing.
+        missing: Vec<String>,
+    },
+    /// A state name collides with a reserved or derived column name.
+    #[error("state variable `{name}` clashes with the column name `{name}` this format reserves for {reserved_for}; rename the variable")]
+    ReservedName {
+        /// The state name.
+        name: String,
+        /// What the column name is used for.
+        reserved_for: String,
+    },
+    /// A row has the wrong number of cells.
+    #[error("line {line}: {found} cell(s), but the header has {expected} columns")]
+    FieldCount {
+        /// Line number.
+        line: u64,
+        /// Columns in the header.
+        expected: usize,
+        /// Cells found.
+        found: usize,
+    },
+    /// A cell is not a number.
+    #[error("line {line}, column {column} (`{name}`): `{text}` is not a number")]
+    NotANumber {
+        /// Line number.
+        line: u64,
+        /// Column number (1-based).
+        column: usize,
+        /// Column name.
+        name: String,
+        /// The cell's text.
+        text: String,
+    },
+    /// A cell is NaN or infinite.
+    #[error("line {line}, column {column} (`{name}`): non-finite value `{text}` (NaN and infinities are not allowed)")]
+    NonFinite {
+        /// Line number.
+        line: u64,
+        /// Column number (1-based).
+        column: usize,
+        /// Column name.
+        name: String,
+        /// The cell's text.
+        text: String,
+    },
+    /// A trajectory identifier cell is empty.
+    #[error("line {line}, column {column} (`trajectory`): empty trajectory identifier")]
+    EmptyTrajectoryId {
+        /// Line number.
+        line: u64,
+        /// Column number (1-based).
+        column: usize,
+    },
+    /// Time did not strictly increase within a trajectory.
+    #[error("line {line}, column {column} (`t`): time {time} does not come after {previous} on line {previous_line}{}: times must strictly increase within a trajectory", trajectory.as_ref().map(|t| format!(" in trajectory `{t}`")).unwrap_or_default())]
+    NonIncreasingTime {
+        /// Line number.
+        line: u64,
+        /// Column number of `t` (1-based).
+        column: usize,
+        /// The trajectory, when the file has a `trajectory` column.
+        trajectory: Option<String>,
+        /// The earlier time.
+        previous: f64,
+        /// Its line.
+        previous_line: u64,
+        /// The offending time.
+        time: f64,
+    },
+    /// A trajectory's rows are split by rows of another trajectory.
+    #[error("line {line}: trajectory `{id}` resumes after other trajectories (its rows began on line {first_line}); the rows of a trajectory must be contiguous")]
+    SplitTrajectory {
+        /// Line number.
+        line: u64,
+        /// The trajectory.
+        id: String,
+        /// Where its rows began.
+        first_line: u64,
+    },
+    /// The CSV syntax itself is broken (e.g. invalid UTF-8, unclosed quote).
+    #[error("line {line}: malformed CSV: {message}")]
+    Malformed {
+        /// Line number.
+        line: u64,
+        /// The parser's message.
+        message: String,
+    },
+    /// Trajectories handed to the writer do not share a column layout.
+    #[error("cannot write trajectory {index}: {reason}")]
+    Inconsistent {
+        /// Index of the offending trajectory.
+        index: usize,
+        /// What differs.
+        reason: String,
+    },
+}
+
+fn quoted(names: &[String]) -> String {
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Whether [`write_trajectories`] may replace an existing file.
+///
+/// ```
+/// use metriplectic_runtime::csv_io::WriteMode;
+/// assert_ne!(WriteMode::CreateNew, WriteMode::Overwrite);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WriteMode {
+    /// Fail with [`Error::FileExists`] if the file exists.
+    #[default]
+    CreateNew,
+    /// Replace an existing file.
+    Overwrite,
+}
+
+/// Reads the trajectories of system `S` from a CSV file (format in the
+/// [module documentation](self)).
+pub fn read_trajectories<S: MetriplecticSystem>(path: impl AsRef<Path>) -> Result<Vec<Trajectory>> {
+    let path = path.as_ref();
+    let file = File::open(path).map_err(|source| Error::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    read_trajectories_from(file, S::STATE_NAMES)
+}
+
+/// Reads trajectories with state variables `names` (in state order) from CSV
+/// text.
+///
+/// ```
+/// use metriplectic_runtime::csv_io::read_trajectories_from;
+///
+/// let text = "p,t,q\n0.5,0,1\n0.25,0.1,0.9\n";
+/// let trajs = read_trajectories_from(text.as_bytes(), &["q", "p"]).unwrap();
+/// assert_eq!(trajs[0].state(1), &[0.9, 0.25]);
+///
+/// let err = read_trajectories_from("t,q\n0,1\n".as_bytes(), &["q", "p"]).unwrap_err();
+/// assert!(err.to_string().contains("missing column(s) `p`"));
+/// ```
+pub fn read_trajectories_from(reader: impl Read, names: &[&str]) -> Result<Vec<Trajectory>> {
+    check_names(names)?;
+    let mut csv = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let mut records = csv.records();
+    let header = match records.next() {
+        None => {
+            return Err(CsvError::NoHeader {
+                expected: expected_columns(names),
+            }
+            .into())
+        }
+        Some(record) => record.map_err(malformed)?,
+    };
+    let layout = Layout::from_header(&header, names)?;
+    let n = names.len();
+
+    let mut builder = Builder::default();
+    let mut seen_ids: HashMap<String, u64> = HashMap::new();
+    let mut state = vec![0.0; n];
+    let mut derivative = vec![0.0; n];
+    for record in records {
+        let record = record.map_err(malformed)?;
+        let line = record.position().map_or(0, |p| p.line());
+        if record.len() != header.len() {
+            return Err(CsvError::FieldCount {
+                line,
+                expected: header.len(),
+                found: record.len(),
+            }
+            .into());
+        }
+        let id = match layout.trajectory {
+            Some(col) => {
+                let text = &record[col];
+                if text.is_empty() {
+                    return Err(CsvError::EmptyTrajectoryId {
+                        line,
+                        column: col + 1,
+                    }
+                    .into());
+                }
+                Some(text.to_owned())
+            }
+            None => None,
+        };
+        let cell = |col: usize| parse_cell(&record[col], line, col, &header[col]);
+        let time = cell(layout.time)?;
+        for j in 0..n {
+            state[j] = cell(layout.states[j])?;
+            if let Some(cols) = &layout.derivatives {
+                derivative[j] = cell(cols[j])?;
+            }
+        }
+
+        let new_trajectory = builder.current.as_ref().map_or(true, |c| c.id != id);
+        if new_trajectory {
+            if let Some(id) = &id {
+                if let Some(&first_line) = seen_ids.get(id) {
+                    return Err(CsvError::SplitTrajectory {
+                        line,
+                        id: id.clone(),
+                        first_line,
+                    }
+                    .into());
+                }
+                seen_ids.insert(id.clone(), line);
+            }
+            builder.finish(names)?;
+            builder.current = Some(Pending::new(id));
+        }
+        let current = builder.current.get_or_insert_with(|| Pending::new(None));
+        if let (Some(&previous), Some(&previous_line)) =
+            (current.times.last(), current.lines.last())
+        {
+            if time <= previous {
+                return Err(CsvError::NonIncreasingTime {
+                    line,
+                    column: layout.time + 1,
+                    trajectory: current.id.clone(),
+                    previous,
+                    previous_line,
+                    time,
+                }
+                .into());
+            }
+        }
+        current.times.push(time);
+        current.lines.push(line);
+        current.states.extend_from_slice(&state);
+        if layout.derivatives.is_some() {
+            current.derivatives.extend_from_slice(&derivative);
+        }
+    }
+    builder.finish(names)?;
+    if builder.done.is_empty() {
+        return Err(CsvError::NoRows.into());
+    }
+    Ok(builder.done)
+}
+
+/// Writes trajectories to a CSV file; refuses to replace an existing file
+/// unless `mode` is [`WriteMode::Overwrite`].
+///
+/// All trajectories must have the same state names and either all or none
+/// must carry derivatives. A `trajectory` column is written when there is
+/// more than one trajectory or any has an [`id`](Trajectory::id); unnamed
+/// trajectories are numbered from 0.
+pub fn write_trajectories(
+    path: impl AsRef<Path>,
+    trajectories: &[Trajectory],
+    mode: WriteMode,
+) -> Result<()> {
+    let path = path.as_ref();
+    // Check before touching the file system, so a bad call leaves no file behind.
+    check_writable(trajectories)?;
+    let file = match mode {
+        WriteMode::CreateNew => OpenOptions::new().write(true).create_new(true).open(path),
+        WriteMode::Overwrite => File::create(path),
+    }
+    .map_err(|source| {
+        if source.kind() == std::io::ErrorKind::AlreadyExists {
+            Error::FileExists {
+                path: path.to_owned(),
+            }
+        } else {
+            Error::Io {
+                path: path.to_owned(),
+                source,
+            }
+        }
+    })?;
+    let mut out = BufWriter::new(file);
+    write_trajectories_to(&mut out, trajectories)
+        .and_then(|()| out.flush().map_err(|source| writer_error(source.into())))
+        .map_err(|error| match error {
+            Error::Io { source, .. } => Error::Io {
+                path: path.to_owned(),
+                source,
+            },
+            other => other,
+        })
+}
+
+/// Writes trajectories as CSV text to any writer (see [`write_trajectories`]).
+///
+/// ```
+/// use metriplectic_runtime::{csv_io::write_trajectories_to, Trajectory};
+///
+/// let traj = Trajectory::new(vec!["x".into()], vec![0.0, 0.1], vec![1.0, 0.9], None).unwrap();
+/// let mut text = Vec::new();
+/// write_trajectories_to(&mut text, &[traj]).unwrap();
+/// assert_eq!(String::from_utf8(text).unwrap(), "t,x\n0,1\n0.1,0.9\n");
+/// ```
+///
+/// I/O failures are [`Error::Io`] with the path `<writer>`.
+pub fn write_trajectories_to(writer: impl Write, trajectories: &[Trajectory]) -> Result<()> {
+    check_writable(trajectories)?;
+    let Some(first) = trajectories.first() else {
+        return Ok(());
+    };
+    let with_ids = trajectories.len() > 1 || trajectories.iter().any(|t| t.id().is_some());
+    let with_derivatives = first.derivatives().is_some();
+    let mut csv = csv::WriterBuilder::new().from_writer(writer);
+    let mut header: Vec<String> = Vec::new();
+    if with_ids {
+        header.push(TRAJECTORY_COLUMN.to_owned());
+    }
+    header.push(TIME_COLUMN.to_owned());
+    header.extend(first.names().iter().cloned());
+    if with_derivatives {
+        header.extend(
+            first
+                .names()
+                .iter()
+                .map(|n| format!("{DERIVATIVE_PREFIX}{n}")),
+        );
+    }
+    csv.write_record(&header).map_err(writer_error)?;
+    let mut row: Vec<String> = Vec::with_capacity(header.len());
+    for (index, traj) in trajectories.iter().enumerate() {
+        let id = traj.id().map_or_else(|| index.to_string(), str::to_owned);
+        for k in 0..traj.len() {
+            row.clear();
+            if with_ids {
+                row.push(id.clone());
+            }
+            // `{}` prints the shortest decimal that parses back to the same f64.
+            row.push(format!("{}", traj.times()[k]));
+            row.extend(traj.state(k).iter().map(|v| format!("{v}")));
+            if let Some(d) = traj.derivative(k) {
+                row.extend(d.iter().map(|v| format!("{v}")));
+            }
+            csv.write_record(&row).map_err(writer_error)?;
+        }
+    }
+    csv.flush().map_err(|source| writer_error(source.into()))?;
+    Ok(())
+}
+
+fn writer_error(error: csv::Error) -> Error {
+    let source = match error.into_kind() {
+        csv::ErrorKind::Io(source) => source,
+        other => std::io::Error::other(format!("{other:?}")),
+    };
+    Error::Io {
+        path: "<writer>".into(),
+        source,
+    }
+}
+
+fn check_writable(trajectories: &[Trajectory]) -> Result<()> {
+    let Some(first) = trajectories.first() else {
+        return Err(Error::InvalidArgument {
+            what: "trajectories".to_owned(),
+            reason: "nothing to write: the list is empty".to_owned(),
+        });
+    };
+    let names: Vec<&str> = first.names().iter().map(String::as_str).collect();
+    check_names(&names)?;
+    for (index, traj) in trajectories.iter().enumerate() {
+        if traj.names() != first.names() {
+            return Err(CsvError::Inconsistent {
+                index,
+                reason: format!(
+                    "state names ({}) differ from those of trajectory 0 ({})",
+                    traj.names().join(", "),
+                    first.names().join(", ")
+                ),
+            }
+            .into());
+        }
+        if traj.derivatives().is_some() != first.derivatives().is_some() {
+            return Err(CsvError::Inconsistent {
+                index,
+                reason: "either all trajectories carry derivatives or none does".to_owned(),
+            }
+            .into());
+        }
+        if traj.id().is_some_and(str::is_empty) {
+            return Err(CsvError::Inconsistent {
+                index,
+                reason: "its identifier is empty".to_owned(),
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Column positions (0-based) found in the header.
+struct Layout {
+    time: usize,
+    trajectory: Option<usize>,
+    states: Vec<usize>,
+    derivatives: Option<Vec<usize>>,
+}
+
+impl Layout {
+    fn from_header(header: &csv::StringRecord, names: &[&str]) -> Result<Self> {
+        let expected = expected_columns(names);
+        let mut positions: HashMap<&str, usize> = HashMap::new();
+        for (col, name) in header.iter().enumerate() {
+            if let Some(&first) = positions.get(name) {
+                return Err(CsvError::DuplicateColumn {
+                    name: name.to_owned(),
+                    first: first + 1,
+                    second: col + 1,
+                }
+                .into());
+            }
+            positions.insert(name, col);
+        }
+        let derivative_names: Vec<String> = names
+            .iter()
+            .map(|n| format!("{DERIVATIVE_PREFIX}{n}"))
+            .collect();
+        let known = |name: &str| {
+            name == TIME_COLUMN
+                || name == TRAJECTORY_COLUMN
+                || names.contains(&name)
+                || derivative_names.iter().any(|d| d == name)
+        };
+        let unknown: Vec<String> = header
+            .iter()
+            .filter(|n| !known(n))
+            .map(str::to_owned)
+            .collect();
+        if !unknown.is_empty() {
+            return Err(CsvError::UnknownColumns { unknown, expected }.into());
+        }
+        let missing: Vec<String> = std::iter::once(TIME_COLUMN)
+            .chain(names.iter().copied())
+            .filter(|n| !positions.contains_key(n))
+            .map(str::to_owned)
+            .collect();
+        if !missing.is_empty() {
+            return Err(CsvError::MissingColumns { missing, expected }.into());
+        }
+        let (present, absent): (Vec<String>, Vec<String>) = derivative_names
+            .iter()
+            .cloned()
+            .partition(|d| positions.contains_key(d.as_str()));
+        let derivatives = if absent.is_empty() {
+            Some(
+                derivative_names
+                    .iter()
+                    .map(|d| positions[d.as_str()])
+                    .collect(),
+            )
+        } else if present.is_empty() {
+            None
+        } else {
+            return Err(CsvError::PartialDerivatives {
+                present,
+                missing: absent,
+            }
+            .into());
+        };
+        Ok(Self {
+            time: positions[TIME_COLUMN],
+            trajectory: positions.get(TRAJECTORY_COLUMN).copied(),
+            states: names.iter().map(|n| positions[n]).collect(),
+            derivatives,
+        })
+    }
+}
+
+/// Rows of the trajectory being read.
+struct Pending {
+    id: Option<String>,
+    times: Vec<f64>,
+    lines: Vec<u64>,
+    states: Vec<f64>,
+    derivatives: Vec<f64>,
+}
+
+impl Pending {
+    fn new(id: Option<String>) -> Self {
+        Self {
+            id,
+            times: Vec::new(),
+            lines: Vec::new(),
+            states: Vec::new(),
+            derivatives: Vec::new(),
+        }
+    }
+}
+
+#[derive(Default)]
+struct Builder {
+    current: Option<Pending>,
+    done: Vec<Trajectory>,
+}
+
+impl Builder {
+    fn finish(&mut self, names: &[&str]) -> Result<()> {
+        if let Some(p) = self.current.take() {
+            let derivatives = (!p.derivatives.is_empty()).then_some(p.derivatives);
+            let names = names.iter().map(|n| (*n).to_owned()).collect();
+            let mut traj = Trajectory::new(names, p.times, p.states, derivatives)?;
+            if let Some(id) = p.id {
+                traj = traj.with_id(id);
+            }
+            self.done.push(traj);
+        }
+        Ok(())
+    }
+}
+
+fn parse_cell(text: &str, line: u64, col: usize, name: &str) -> Result<f64> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(CsvError::NonFinite {
+            line,
+            column: col + 1,
+            name: name.to_owned(),
+            text: text.to_owned(),
+        }
+        .into()),
+        Err(_) => Err(CsvError::NotANumber {
+            line,
+            column: col + 1,
+            name: name.to_owned(),
+            text: text.to_owned(),
+        }
+        .into()),
+    }
+}
+
+fn malformed(error: csv::Error) -> Error {
+    let line = error.position().map_or(0, |p| p.line());
+    let message = match error.kind() {
+        csv::ErrorKind::Utf8 { err, .. } => format!("invalid UTF-8 in field {}", err.field() + 1),
+        _ => error.to_string(),
+    };
+    CsvError::Malformed { line, message }.into()
+}
+
+/// Rejects state names that collide with the format's column names.
+fn check_names(names: &[&str]) -> Result<()> {
+    if names.is_empty() {
+        return Err(Error::InvalidArgument {
+            what: "state names".to_owned(),
+            reason: "at least one state variable is required".to_owned(),
+        });
+    }
+    for name in names {
+        let reserved_for = if *name == TIME_COLUMN {
+            Some("the time".to_owned())
+        } else if *name == TRAJECTORY_COLUMN {
+            Some("trajectory identifiers".to_owned())
+        } else {
+            names
+                .iter()
+                .find(|other| format!("{DERIVATIVE_PREFIX}{other}") == *name)
+                .map(|other| format!("the derivative of `{other}`"))
+        };
+        if let Some(reserved_for) = reserved_for {
+            return Err(CsvError::ReservedName {
+                name: (*name).to_owned(),
+                reserved_for,
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
+
+fn expected_columns(names: &[&str]) -> String {
+    let derivatives: Vec<String> = names
+        .iter()
+        .map(|n| format!("{DERIVATIVE_PREFIX}{n}"))
+        .collect();
+    format!(
+        "`{TIME_COLUMN}`, {} (required); {} (optional, all or none); `{TRAJECTORY_COLUMN}` (optional)",
+        names
+            .iter()
+            .map(|n| format!("`{n}`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        quoted(&derivatives)
+    )
+}

@@ -1,0 +1,804 @@
+//! Simulation: integrate ẋ = (Π + K)(∇H + ∇S) for a [`Model`].
+//!
+//! The integrator is the Dormand–Prince 5(4) method of the `ode_solvers`
+//! crate (Hairer's DOPRI5: embedded error estimate, PI step-size controller,
+//! stiffness detection, 4th-order dense output). Outputs can be the accepted
+//! steps, a fixed interval, or arbitrary times (evaluated with the dense
+//! output, so they do not shorten the integrator's steps).
+//!
+//! Failures are errors, never panics: step-size underflow, too many steps,
+//! detected stiffness and non-finite values are reported as
+//! [`SimulationError`] with the time where they happened.
+//!
+//! Along every simulated trajectory of a model with K ⪰ 0 the free energy
+//! E = H + S must not decrease (dE/dt = ∇Eᵀ K ∇E ≥ 0). [`simulate`] reports
+//! E at each output and an [`EnergyCheck`]: between consecutive outputs k and
+//! k+1, a decrease counts as a violation only if it exceeds
+//!
+//! ```text
+//! τₖ = factor · (atol·√n + rtol·max(‖xₖ‖, ‖xₖ₊₁‖)) · max(‖∇E(xₖ)‖, ‖∇E(xₖ₊₁)‖),
+//! ```
+//!
+//! the first-order change of E caused by a state error of the size the
+//! integrator controls (each component's local error is kept below
+//! atol + rtol·|xᵢ|). `factor` is [`SimulationOptions::energy_tolerance_factor`].
+
+use std::cell::Cell;
+
+use ode_solvers::dop_shared::{IntegrationError, OutputType, System};
+use ode_solvers::{continuous_output_model::ContinuousOutputModel, DVector, Dopri5};
+
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::system::MetriplecticSystem;
+use crate::trajectory::Trajectory;
+
+/// Why an integration stopped early.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimulationError {
+    /// The step size became too small for the time in floating point.
+    #[error("integration failed at t = {t}: step size underflow (the solution may blow up or be too stiff for an explicit method)")]
+    StepSizeUnderflow {
+        /// Time reached.
+        t: f64,
+    },
+    /// The step budget was exhausted.
+    #[error("integration stopped at t = {t}: more than {max_steps} steps needed (raise `max_steps`, loosen the tolerances or shorten the interval)")]
+    TooManySteps {
+        /// Time reached.
+        t: f64,
+        /// The step budget.
+        max_steps: u32,
+    },
+    /// DOPRI5's stiffness test fired repeatedly.
+    #[error("integration stopped at t = {t}: the problem became stiff (an explicit method needs tiny steps here; start closer to the attractor or shorten the interval)")]
+    Stiff {
+        /// Time reached.
+        t: f64,
+    },
+    /// The vector field or the state became NaN or infinite.
+    #[error("integration failed at t = {t}: non-finite {what} in component {index}")]
+    NonFinite {
+        /// Time where it was first seen.
+        t: f64,
+        /// "state" or "vector field".
+        what: &'static str,
+        /// State component.
+        index: usize,
+    },
+}
+
+/// Error control and budget of the integrator.
+///
+/// ```
+/// use metriplectic_runtime::simulate::IntegratorOptions;
+///
+/// let options = IntegratorOptions { rtol: 1e-8, atol: 1e-10, ..IntegratorOptions::default() };
+/// assert_eq!(options.max_steps, 100_000);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct IntegratorOptions {
+    /// Relative tolerance of the local error estimate (> 0).
+    pub rtol: f64,
+    /// Absolute tolerance of the local error estimate (> 0).
+    pub atol: f64,
+    /// Maximal number of step attempts (accepted and rejected).
+    pub max_steps: u32,
+    /// Largest step size; `None` means the whole interval.
+    pub max_step: Option<f64>,
+}
+
+impl Default for IntegratorOptions {
+    fn default() -> Self {
+        Self {
+            rtol: 1e-6,
+            atol: 1e-9,
+            max_steps: 100_000,
+            max_step: None,
+        }
+    }
+}
+
+/// Where the solution is reported.
+///
+/// ```
+/// use metriplectic_runtime::simulate::OutputTimes;
+///
+/// let every_tenth = OutputTimes::Interval(0.1);
+/// let chosen = OutputTimes::Times(vec![0.0, 0.01, 0.1, 1.0]);
+/// # let _ = (every_tenth, chosen);
+/// ```
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum OutputTimes {
+    /// The initial time and every accepted step.
+    #[default]
+    Steps,
+    /// t₀, t₀ + Δ, t₀ + 2Δ, … up to t_end (Δ > 0), from the dense output.
+    Interval(f64),
+    /// These times (finite, strictly increasing, within [t₀, t_end]), from the
+    /// dense output.
+    Times(Vec<f64>),
+}
+
+/// Options of [`simulate`].
+///
+/// ```
+/// use metriplectic_runtime::simulate::{OutputTimes, SimulationOptions};
+///
+/// let options = SimulationOptions { output: OutputTimes::Interval(0.05), ..Default::default() };
+/// assert_eq!(options.energy_tolerance_factor, 10.0);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulationOptions {
+    /// Error control of the integrator.
+    pub integrator: IntegratorOptions,
+    /// Output times.
+    pub output: OutputTimes,
+    /// Safety factor of the free-energy monotonicity tolerance (see the
+    /// [module documentation](self)); must be ≥ 0.
+    pub energy_tolerance_factor: f64,
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        Self {
+            integrator: IntegratorOptions::default(),
+            output: OutputTimes::default(),
+            energy_tolerance_factor: 10.0,
+        }
+    }
+}
+
+/// Work done by the integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct IntegrationStats {
+    /// Vector field evaluations.
+    pub evaluations: u32,
+    /// Accepted steps.
+    pub accepted_steps: u32,
+    /// Rejected steps.
+    pub rejected_steps: u32,
+}
+
+/// The output of [`integrate`]: times and row-major states.
+///
+/// ```
+/// use metriplectic_runtime::simulate::{integrate, IntegratorOptions, OutputTimes};
+///
+/// // ẋ = −x from x(0) = 1.
+/// let sol = integrate(|_t, x, dx| dx[0] = -x[0], &[1.0], 0.0, 1.0,
+///                     &IntegratorOptions::default(), &OutputTimes::Times(vec![1.0])).unwrap();
+/// assert!((sol.states[0] - (-1.0f64).exp()).abs() < 1e-6);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    /// Output times.
+    pub times: Vec<f64>,
+    /// States at the output times, row-major.
+    pub states: Vec<f64>,
+    /// Integrator statistics.
+    pub stats: IntegrationStats,
+}
+
+/// Result of the free-energy monotonicity check of one simulated trajectory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnergyCheck {
+    /// Number of consecutive output pairs checked.
+    pub steps: usize,
+    /// Pairs where E decreased by more than the tolerance τₖ.
+    pub violations: usize,
+    /// Largest decrease E(xₖ) − E(xₖ₊₁) seen (0 if E never decreased).
+    pub largest_decrease: f64,
+    /// Largest ratio of a decrease to its tolerance τₖ (0 if E never decreased).
+    pub largest_decrease_ratio: f64,
+    /// Output index k of the worst pair, if E ever decreased.
+    pub worst_step: Option<usize>,
+}
+
+impl EnergyCheck {
+    /// `true` if E was non-decreasing within the tolerance everywhere.
+    pub fn is_non_decreasing(&self) -> bool {
+        self.violations == 0
+    }
+}
+
+/// A simulated trajectory with its free energy.
+///
+/// ```
+/// # use metriplectic_runtime::prelude::*;
+/// # use metriplectic_runtime::simulate::{simulate, SimulationOptions};
+/// # metriplectic! {
+/// #     pub struct Decay;
+/// #     state (x, y);
+/// #     poisson = [[0, 1], [-1, 0]];
+/// #     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
+/// #     entropy degree 2;
+/// #     metric degree 0;
+/// #     reference { entropy = -(x^2 + y^2); metric = [[1, 0], [0, 1]]; }
+/// # }
+/// let model = Model::<Decay>::reference().unwrap();
+/// let sim = simulate(&model, &[1.0, 0.0], 0.0, 2.0, &SimulationOptions::default()).unwrap();
+/// assert!(sim.energy.is_non_decreasing());
+/// assert_eq!(sim.free_energy.len(), sim.trajectory.len());
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Simulation {
+    /// Times, states and the exact vector field ẋ = f(x) at each output.
+    pub trajectory: Trajectory,
+    /// E(x) at each output.
+    pub free_energy: Vec<f64>,
+    /// Monotonicity of E along the trajectory.
+    pub energy: EnergyCheck,
+    /// Integrator statistics.
+    pub stats: IntegrationStats,
+}
+
+/// Simulates `model` from `x0` over [t0, t_end] (t_end > t0).
+///
+/// The trajectory carries the model's exact vector field at every output
+/// state as its derivatives, and its state names are `S::STATE_NAMES`.
+pub fn simulate<S: MetriplecticSystem>(
+    model: &Model<S>,
+    x0: &[f64],
+    t0: f64,
+    t_end: f64,
+    options: &SimulationOptions,
+) -> Result<Simulation> {
+    crate::error::check_len("initial state", x0, S::DIM)?;
+    let factor = options.energy_tolerance_factor;
+    if !(factor.is_finite() && factor >= 0.0) {
+        return Err(invalid(
+            "energy_tolerance_factor",
+            format!("{factor}: must be finite and ≥ 0"),
+        ));
+    }
+    let solution = integrate(
+        |_t, x, dx| model.vector_field_unchecked(x, dx),
+        x0,
+        t0,
+        t_end,
+        &options.integrator,
+        &options.output,
+    )?;
+    let n = S::DIM;
+    let count = solution.times.len();
+    let mut derivatives = vec![0.0; count * n];
+    let mut free_energy = Vec::with_capacity(count);
+    let mut gradient_norms = Vec::with_capacity(count);
+    let mut grad = vec![0.0; n];
+    for (k, x) in solution.states.chunks_exact(n).enumerate() {
+        model.vector_field_unchecked(x, &mut derivatives[k * n..(k + 1) * n]);
+        free_energy.push(model.free_energy(x)?);
+        model.free_energy_gradient_unchecked(x, &mut grad);
+        gradient_norms.push(norm(&grad));
+    }
+    let energy = check_energy(
+        &free_energy,
+        &gradient_norms,
+        &solution.states,
+        n,
+        &options.integrator,
+        factor,
+    );
+    let names = S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect();
+    let trajectory = Trajectory::new(names, solution.times, solution.states, Some(derivatives))?;
+    Ok(Simulation {
+        trajectory,
+        free_energy,
+        energy,
+        stats: solution.stats,
+    })
+}
+
+/// Integrates ẋ = f(t, x) from `x0` over [t0, t_end] (t_end > t0) with
+/// DOPRI5, reporting the solution at `output`.
+///
+/// `f(t, x, dx)` writes the derivative into `dx`. This is the code path
+/// [`simulate`] uses; it is public so that any ODE can be integrated and
+/// checked with the same settings.
+pub fn integrate<F>(
+    f: F,
+    x0: &[f64],
+    t0: f64,
+    t_end: f64,
+    options: &IntegratorOptions,
+    output: &OutputTimes,
+) -> Result<Solution>
+where
+    F: Fn(f64, &[f64], &mut [f64]),
+{
+    validate(x0, t0, t_end, options, output)?;
+    let n = x0.len();
+    // Refuse to start from a point where the field is already undefined:
+    // DOPRI5's initial step guess would turn NaN into an endless loop of rejections.
+    let mut dx0 = vec![0.0; n];
+    f(t0, x0, &mut dx0);
+    if let Some(index) = dx0.iter().position(|v| !v.is_finite()) {
+        return Err(SimulationError::NonFinite {
+            t: t0,
+            what: "vector field",
+            index,
+        }
+        .into());
+    }
+
+    // ode_solvers compares times through `abs()` in its dense output, which is
+    // only right for non-negative times: integrate in τ = t − t0 ∈ [0, T].
+    let span = t_end - t0;
+    let non_finite_field = Cell::new(None);
+    let adapter = Adapter {
+        f: &f,
+        t0,
+        non_finite: &non_finite_field,
+    };
+    let mut solver = Dopri5::from_param(
+        adapter,
+        0.0,
+        span,
+        span,
+        DVector::from_column_slice(x0),
+        options.rtol,
+        options.atol,
+        0.9,
+        0.04,
+        0.2,
+        10.0,
+        options.max_step.unwrap_or(span),
+        0.0,
+        options.max_steps,
+        1000,
+        OutputType::Continuous,
+    );
+    let mut dense = ContinuousOutputModel::default();
+    let result = solver.integrate_with_continuous_output_model(&mut dense);
+    // `solver` owns the adapter; read what it recorded through the accepted steps.
+    let steps_t = solver.x_out().clone();
+    let steps_x = solver.y_out().clone();
+    let stats = match result {
+        Ok(stats) => stats,
+        Err(error) => {
+            let failure = integration_failure(error, options.max_steps, &steps_x, t0);
+            return Err(explain_with_field(failure, non_finite_field.get(), t0).into());
+        }
+    };
+    if let Some((tau, index)) = steps_x
+        .iter()
+        .zip(&steps_t)
+        .find_map(|(y, &tau)| y.iter().position(|v| !v.is_finite()).map(|i| (tau, i)))
+    {
+        return Err(SimulationError::NonFinite {
+            t: t0 + tau,
+            what: "state",
+            index,
+        }
+        .into());
+    }
+    let stats = IntegrationStats {
+        evaluations: stats.num_eval,
+        accepted_steps: stats.accepted_steps,
+        rejected_steps: stats.rejected_steps,
+    };
+
+    let mut times = Vec::new();
+    let mut states = Vec::new();
+    match output {
+        OutputTimes::Steps => {
+            times.push(t0);
+            states.extend_from_slice(x0);
+            for (tau, y) in steps_t.iter().zip(&steps_x) {
+                times.push(t0 + tau);
+                states.extend(y.iter());
+            }
+        }
+        OutputTimes::Interval(dt) => {
+            // k·Δ rather than repeated addition, so no drift over long runs.
+            let count = (span / dt * (1.0 + 1e-12)).floor() as usize;
+            for k in 0..=count {
+                let tau = (k as f64 * dt).min(span);
+                push_dense(&dense, tau, t0, x0, &mut times, &mut states)?;
+            }
+        }
+        OutputTimes::Times(requested) => {
+            for &t in requested {
+                push_dense(&dense, t - t0, t0, x0, &mut times, &mut states)?;
+            }
+        }
+    }
+    Ok(Solution {
+        times,
+        states,
+        stats,
+    })
+}
+
+/// The ODE as `ode_solvers` sees it, in shifted time τ = t − t0.
+struct Adapter<'a, F> {
+    f: &'a F,
+    t0: f64,
+    /// First (τ, component) where the vector field was non-finite, if any.
+    non_finite: &'a Cell<Option<(f64, usize)>>,
+}
+
+impl<F> System<f64, DVector<f64>> for Adapter<'_, F>
+where
+    F: Fn(f64, &[f64], &mut [f64]),
+{
+    fn system(&self, tau: f64, y: &DVector<f64>, dy: &mut DVector<f64>) {
+        (self.f)(self.t0 + tau, y.as_slice(), dy.as_mut_slice());
+        if self.non_finite.get().is_none() {
+            if let Some(i) = dy.iter().position(|v| !v.is_finite()) {
+                self.non_finite.set(Some((tau, i)));
+            }
+        }
+    }
+
+    fn solout(&mut self, _tau: f64, y: &DVector<f64>, _dy: &DVector<f64>) -> bool {
+        // Stop at once on a non-finite accepted state; `integrate` reports it.
+        y.iter().any(|v| !v.is_finite())
+    }
+}
+
+fn integration_failure(
+    error: IntegrationError,
+    max_steps: u32,
+    steps_x: &[DVector<f64>],
+    t0: f64,
+) -> SimulationError {
+    // A non-finite last accepted state explains any later failure best.
+    if let Some(index) = steps_x
+        .last()
+        .and_then(|y| y.iter().position(|v| !v.is_finite()))
+    {
+        let t = match error {
+            IntegrationError::MaxNumStepReached { x, .. }
+            | IntegrationError::StepSizeUnderflow { x }
+            | IntegrationError::StiffnessDetected { x } => x,
+        };
+        return SimulationError::NonFinite {
+            t: t0 + t,
+            what: "state",
+            index,
+        };
+    }
+    match error {
+        IntegrationError::MaxNumStepReached { x, .. } => SimulationError::TooManySteps {
+            t: t0 + x,
+            max_steps,
+        },
+        IntegrationError::StepSizeUnderflow { x } => {
+            SimulationError::StepSizeUnderflow { t: t0 + x }
+        }
+        IntegrationError::StiffnessDetected { x } => SimulationError::Stiff { t: t0 + x },
+    }
+}
+
+/// A step-size failure after the field went non-finite is explained by that.
+fn explain_with_field(
+    failure: SimulationError,
+    non_finite_field: Option<(f64, usize)>,
+    t0: f64,
+) -> SimulationError {
+    match (failure, non_finite_field) {
+        (SimulationError::StepSizeUnderflow { .. }, Some((tau, index))) => {
+            SimulationError::NonFinite {
+                t: t0 + tau,
+                what: "vector field",
+                index,
+            }
+        }
+        (failure, _) => failure,
+    }
+}
+
+fn push_dense(
+    dense: &ContinuousOutputModel<f64, DVector<f64>>,
+    tau: f64,
+    t0: f64,
+    x0: &[f64],
+    times: &mut Vec<f64>,
+    states: &mut Vec<f64>,
+) -> Result<()> {
+    times.push(t0 + tau);
+    if tau <= 0.0 {
+        // The dense output starts after the first step; t0 is the initial state.
+        states.extend_from_slice(x0);
+        return Ok(());
+    }
+    let y = dense.evaluate(tau).ok_or_else(|| {
+        invalid(
+            "output time",
+            format!("{} lies outside the integrated interval", t0 + tau),
+        )
+    })?;
+    if let Some(index) = y.iter().position(|v| !v.is_finite()) {
+        return Err(SimulationError::NonFinite {
+            t: t0 + tau,
+            what: "state",
+            index,
+        }
+        .into());
+    }
+    states.extend(y.iter());
+    Ok(())
+}
+
+fn validate(
+    x0: &[f64],
+    t0: f64,
+    t_end: f64,
+    options: &IntegratorOptions,
+    output: &OutputTimes,
+) -> Result<()> {
+    if x0.is_empty() {
+        return Err(invalid("initial state", "it is empty".to_owned()));
+    }
+    crate::error::check_finite("initial state", x0)?;
+    if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
+        return Err(invalid(
+            "time interval",
+            format!("[{t0}, {t_end}]: need finite t0 < t_end (only forward integration)"),
+        ));
+    }
+    for (what, value) in [("rtol", options.rtol), ("atol", options.atol)] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(invalid(what, format!("{value}: must be finite and > 0")));
+        }
+    }
+    if options.rtol < 1e-14 {
+        return Err(invalid(
+            "rtol",
+            format!("{}: below 1e-14 no step can meet it in f64", options.rtol),
+        ));
+    }
+    if options.max_steps == 0 {
+        return Err(invalid("max_steps", "must be at least 1".to_owned()));
+    }
+    if let Some(h) = options.max_step {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(invalid("max_step", format!("{h}: must be finite and > 0")));
+        }
+    }
+    match output {
+        OutputTimes::Steps => {}
+        OutputTimes::Interval(dt) => {
+            if !(dt.is_finite() && *dt > 0.0) {
+                return Err(invalid(
+                    "output interval",
+                    format!("{dt}: must be finite and > 0"),
+                ));
+            }
+            if (t_end - t0) / dt > 1e8 {
+                return Err(invalid(
+                    "output interval",
+                    format!("{dt} over [{t0}, {t_end}] asks for more than 10⁸ outputs"),
+                ));
+            }
+        }
+        OutputTimes::Times(times) => {
+            if times.is_empty() {
+                return Err(invalid("output times", "the list is empty".to_owned()));
+            }
+            if let Some(k) = times
+                .iter()
+                .position(|t| !(t.is_finite() && *t >= t0 && *t <= t_end))
+            {
+                return Err(invalid(
+                    "output times",
+                    format!("time {k} ({}) is not within [{t0}, {t_end}]", times[k]),
+                ));
+            }
+            if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
+                return Err(invalid(
+                    "output times",
+                    format!(
+                        "time {} ({}) does not come after time {k} ({}): they must strictly increase",
+                        k + 1,
+                        times[k + 1],
+                        times[k]
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Counts decreases of E beyond the integrator-tied tolerance τₖ.
+fn check_energy(
+    energy: &[f64],
+    gradient_norms: &[f64],
+    states: &[f64],
+    n: usize,
+    options: &IntegratorOptions,
+    factor: f64,
+) -> EnergyCheck {
+    let state_norms: Vec<f64> = states.chunks_exact(n).map(norm).collect();
+    let mut check = EnergyCheck {
+        steps: energy.len().saturating_sub(1),
+        violations: 0,
+        largest_decrease: 0.0,
+        largest_decrease_ratio: 0.0,
+        worst_step: None,
+    };
+    for k in 0..check.steps {
+        let decrease = energy[k] - energy[k + 1];
+        if decrease <= 0.0 {
+            continue;
+        }
+        let error_scale = options.atol * (n as f64).sqrt()
+            + options.rtol * state_norms[k].max(state_norms[k + 1]);
+        let tolerance = factor * error_scale * gradient_norms[k].max(gradient_norms[k + 1]);
+        let ratio = if tolerance > 0.0 {
+            decrease / tolerance
+        } else {
+            f64::INFINITY
+        };
+        if decrease > tolerance {
+            check.violations += 1;
+        }
+        if decrease > check.largest_decrease {
+            check.largest_decrease = decrease;
+        }
+        if ratio > check.largest_decrease_ratio {
+            check.largest_decrease_ratio = ratio;
+            check.worst_step = Some(k);
+        }
+    }
+    check
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn invalid(what: &str, reason: String) -> Error {
+    Error::InvalidArgument {
+        what: what.to_owned(),
+        reason,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exponential_decay_at_requested_tolerance() {
+        for &rtol in &[1e-4, 1e-7, 1e-10] {
+            let options = IntegratorOptions {
+                rtol,
+                atol: rtol * 1e-3,
+                ..Default::default()
+            };
+            let sol = integrate(
+                |_t, x, dx| dx[0] = -x[0],
+                &[1.0],
+                0.0,
+                5.0,
+                &options,
+                &OutputTimes::Interval(0.5),
+            )
+            .unwrap();
+            assert_eq!(sol.times.len(), 11);
+            let worst = sol
+                .times
+                .iter()
+                .zip(&sol.states)
+                .map(|(t, x)| ((x - (-t).exp()) / (-t).exp()).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 10.0 * rtol, "rtol {rtol}: relative error {worst}");
+        }
+    }
+
+    #[test]
+    fn blow_up_is_an_error_not_a_panic() {
+        // ẋ = x² from 1 blows up at t = 1.
+        let err = integrate(
+            |_t, x, dx| dx[0] = x[0] * x[0],
+            &[1.0],
+            0.0,
+            2.0,
+            &IntegratorOptions::default(),
+            &OutputTimes::Steps,
+        )
+        .unwrap_err();
+        match err {
+            Error::Simulation(
+                SimulationError::StepSizeUnderflow { t }
+                | SimulationError::TooManySteps { t, .. }
+                | SimulationError::NonFinite { t, .. },
+            ) => assert!((t - 1.0).abs() < 1e-2, "stopped at {t}"),
+            other => panic!("unexpected {other}"),
+        }
+    }
+
+    #[test]
+    fn non_finite_field_at_start_is_reported() {
+        let err = integrate(
+            |_t, _x, dx| dx[0] = f64::NAN,
+            &[1.0],
+            0.0,
+            1.0,
+            &IntegratorOptions::default(),
+            &OutputTimes::Steps,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::Simulation(SimulationError::NonFinite {
+                    what: "vector field",
+                    index: 0,
+                    ..
+                })
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn step_budget_is_enforced() {
+        let options = IntegratorOptions {
+            max_steps: 10,
+            rtol: 1e-10,
+            atol: 1e-12,
+            ..Default::default()
+        };
+        let err = integrate(
+            |_t, x, dx| {
+                dx[0] = x[1];
+                dx[1] = -x[0];
+            },
+            &[1.0, 0.0],
+            0.0,
+            100.0,
+            &options,
+            &OutputTimes::Steps,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::Simulation(SimulationError::TooManySteps { max_steps: 10, .. })
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn rejects_bad_options() {
+        let f = |_t: f64, x: &[f64], dx: &mut [f64]| dx[0] = -x[0];
+        let run = |t0: f64, t1: f64, opt: IntegratorOptions, out: OutputTimes| {
+            integrate(f, &[1.0], t0, t1, &opt, &out)
+                .unwrap_err()
+                .to_string()
+        };
+        let d = IntegratorOptions::default;
+        assert!(run(1.0, 0.0, d(), OutputTimes::Steps).contains("t0 < t_end"));
+        let o = IntegratorOptions { rtol: 0.0, ..d() };
+        assert!(run(0.0, 1.0, o, OutputTimes::Steps).contains("rtol"));
+        assert!(run(0.0, 1.0, d(), OutputTimes::Interval(-1.0)).contains("output interval"));
+        let out = OutputTimes::Times(vec![0.5, 0.2]);
+        assert!(run(0.0, 1.0, d(), out).contains("strictly increase"));
+        let out = OutputTimes::Times(vec![0.5, 2.0]);
+        assert!(run(0.0, 1.0, d(), out).contains("not within"));
+    }
+
+    #[test]
+    fn negative_start_time_and_outputs() {
+        // Time shifting: results must not depend on t0's sign.
+        let sol = integrate(
+            |t, _x, dx| dx[0] = 2.0 * t,
+            &[4.0],
+            -2.0,
+            1.0,
+            &IntegratorOptions::default(),
+            &OutputTimes::Times(vec![-2.0, -1.0, 0.0, 1.0]),
+        )
+        .unwrap();
+        for (t, x) in sol.times.iter().zip(&sol.states) {
+            assert!((x - t * t).abs() < 1e-9, "x({t}) = {x}");
+        }
+    }
+}
