@@ -1,9 +1,146 @@
-//! The `metriplectic!` macro (placeholder while the pipeline is built).
-use proc_macro::TokenStream;
+//! The `metriplectic!` macro: DSL parser, exact polynomial engine and code
+//! generator.
+//!
+//! Use it through `metriplectic_runtime`, which re-exports it and provides the
+//! `MetriplecticSystem` trait the generated code implements. The pipeline is
+//! one module per stage: [`parse`](crate::parse) (tokens → syntax tree with
+//! spans), `analysis` (syntax tree → exact polynomials, every check),
+//! `monomials` (graded-lex bases and SOS tables), `emit` (readable Rust).
 
-/// Declares a generalized metriplectic system.
+use proc_macro::TokenStream;
+use proc_macro2::TokenStream as TokenStream2;
+
+mod analysis;
+mod emit;
+mod monomials;
+mod parse;
+mod polynomial;
+
+/// Declares a generalized metriplectic system
+/// ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)) with known Poisson tensor Π and
+/// Hamiltonian H, and polynomial bases for the unknown entropy S and metric K.
+///
+/// ```ignore
+/// use metriplectic_runtime::prelude::*;
+///
+/// metriplectic! {
+///     /// Docs carried to the generated type.
+///     pub struct Oscillator;
+///     state (q, p);                       // x = (q, p), in this order
+///     const k = 1;                        // optional named constants
+///     poisson = [[0, 1], [-1, 0]];        // Π(x): n×n polynomial entries
+///     hamiltonian = 0.5 * p^2 + 0.5 * k * q^2;
+///     entropy degree 8;                   // S spans monomials of degree 1..=8
+///     metric degree 2;                    // K entries span degree 0..=2 (even)
+///     reference {                         // optional known model
+///         entropy = -0.5 * (p^2 + 4*q^4 - 4*q^2)^2 - (0.5*p^2 + 0.5*q^2);
+///         metric  = [[1, 0], [0, 1]];
+///     }
+/// }
+/// ```
+///
+/// # Sections
+///
+/// Sections may come in any order, each at most once; `const` may repeat.
+///
+/// * `pub struct Name;` first, with optional doc comments, attributes and
+///   visibility. It becomes a unit struct implementing
+///   `metriplectic_runtime::MetriplecticSystem`.
+/// * `state (a, b, …);` the state variables, in state order.
+/// * `const NAME = expr;` a named constant: a constant expression that may use
+///   numbers and earlier constants.
+/// * `poisson = [[…], …];` Π(x), an n×n matrix of polynomials. It must be
+///   skew-symmetric and satisfy the Jacobi identity; both are checked exactly.
+/// * `hamiltonian = expr;` H(x).
+/// * `entropy degree r;` (1 ≤ r) the entropy basis: all monomials of degree
+///   1..=r (the constant has zero gradient, so it is left out).
+/// * `metric degree s;` (even) each entry of K spans the monomials of degree
+///   0..=s.
+/// * `reference { entropy = expr; metric = [[…]]; }` optional: a known model
+///   (for synthetic data and tests). It must fit the declared bases and the
+///   metric must be symmetric.
+///
+/// # Expressions
+///
+/// Polynomials written with numbers (`2`, `0.5`, `1e-3`: all exact
+/// rationals), state variables, constants, `+ - * /`, `^` and parentheses.
+/// `^` takes a non-negative integer exponent, binds tighter than unary minus
+/// and `*`, and is right-associative: `-q^2` is −(q²), `2*q^3` is 2(q³),
+/// `2^3^2` is 2⁹. Division is only by non-zero constant expressions. Anything
+/// else — a variable in a denominator, `q^-1`, `q^0.5`, `sin(q)`, `q.powi(2)` —
+/// is a compile error pointing at the offending tokens.
+///
+/// # What it generates
+///
+/// The struct, inherent items (`MONOMIAL_COUNT`, `ENTROPY_JACOBIAN_TERMS`,
+/// `monomials(x)`, and `reference_model()` when a reference is declared) and
+/// the trait impl: exponent tables in graded lexicographic order (by degree,
+/// then larger exponents of earlier variables first), SOS matching tables (full
+/// and facially reduced), straight-line code for H, ∇H, Π and every monomial
+/// (each one multiplication from a lower one), and the per-sample assembly
+/// blocks of the entropy and metric searches. View it with `cargo expand`.
 #[proc_macro]
 pub fn metriplectic(input: TokenStream) -> TokenStream {
-    let _ = input;
-    TokenStream::new()
+    match expand(input.into()) {
+        Ok(tokens) => tokens.into(),
+        Err(error) => error.to_compile_error().into(),
+    }
+}
+
+/// Parses, checks and generates code for one `metriplectic!` invocation.
+///
+/// Every failure is a spanned [`syn::Error`]; this function never panics on
+/// any input.
+fn expand(input: TokenStream2) -> syn::Result<TokenStream2> {
+    let def: parse::SystemDef = syn::parse2(input)?;
+    let system = analysis::analyse(def)?;
+    Ok(emit::emit(&system))
+}
+
+#[cfg(test)]
+mod snapshot_tests {
+    use std::path::PathBuf;
+
+    use quote::quote;
+
+    /// The 2-D paper system (DESIGN.md §3), as a user would write it.
+    fn linear_2d() -> proc_macro2::TokenStream {
+        quote! {
+            /// Canonical oscillator whose free energy has a figure-eight zero set.
+            pub struct Oscillator;
+            state (q, p);
+            poisson = [[0, 1], [-1, 0]];
+            hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+            entropy degree 8;
+            metric degree 2;
+            reference {
+                entropy = -0.5 * (p^2 + 4*q^4 - 4*q^2)^2 - (0.5*p^2 + 0.5*q^2);
+                metric = [[1, 0], [0, 1]];
+            }
+        }
+    }
+
+    fn pretty(tokens: proc_macro2::TokenStream) -> String {
+        let file: syn::File = syn::parse2(tokens).expect("generated code parses as a file");
+        prettyplease::unparse(&file)
+    }
+
+    /// What users see under `cargo expand`; `UPDATE_SNAPSHOTS=1` rewrites it.
+    #[test]
+    fn linear_2d_expansion_matches_snapshot() {
+        let expanded = pretty(super::expand(linear_2d()).expect("the paper system is valid"));
+        let path =
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("snapshots/linear_2d.expanded.rs");
+        if std::env::var_os("UPDATE_SNAPSHOTS").is_some() {
+            std::fs::create_dir_all(path.parent().expect("snapshot dir"))
+                .expect("create snapshots/");
+            std::fs::write(&path, &expanded).expect("write snapshot");
+        }
+        let stored = std::fs::read_to_string(&path)
+            .expect("snapshot missing: run with UPDATE_SNAPSHOTS=1 and review the file");
+        assert!(
+            stored == expanded,
+            "expansion changed; review and rerun with UPDATE_SNAPSHOTS=1\n{expanded}"
+        );
+    }
 }
