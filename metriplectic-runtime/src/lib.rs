@@ -57,6 +57,7 @@ pub mod derivative;
 pub mod diagnostics;
 pub mod entropy_search;
 pub mod error;
+pub mod identify;
 pub mod metric_search;
 pub mod model;
 #[cfg(feature = "plot")]
@@ -72,6 +73,10 @@ pub use conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
 pub use cost::{model_cost, Cost};
 pub use dataset::{Dataset, DatasetError};
 pub use entropy_search::{entropy_search, EntropySearch, EntropySearchOptions};
+pub use identify::{
+    identify, identify_with_observer, History, Identification, IdentifyConfig, IterationRecord,
+    StepOutcome, StepRecord, StopReason,
+};
 pub use error::{Error, Result};
 pub use metric_search::{metric_search, MetricSearch, MetricSearchOptions, SosBasis};
 pub use metriplectic_macros::metriplectic;

@@ -1,0 +1,672 @@
+//! Bilevel identification: the paper's Algorithm 1 (full batch) and
+//! Algorithm 2 (a fresh random minibatch every iteration).
+//!
+//! Each iteration runs the metric search with the entropy fixed, then the
+//! entropy search with the metric fixed, on the same batch. A step replaces
+//! the current model only if its solve ended usable ([`SolveStatus::is_usable`]),
+//! its coefficients are finite, and its cost **on the same batch**, recomputed
+//! from the coefficients, is not larger than the current model's. That is the
+//! hypothesis of the paper's Theorem 1, so with the full batch the cost is
+//! non-increasing by construction; every rejected step is recorded in the
+//! [`History`].
+//!
+//! # Stopping
+//!
+//! * the per-component cost on the iteration's batch reaches
+//!   [`IdentifyConfig::tolerance`] ([`StopReason::Converged`]);
+//! * [`IdentifyConfig::max_iterations`] iterations ran ([`StopReason::MaxIterations`]);
+//! * the observer returned [`ControlFlow::Break`] ([`StopReason::Interrupted`]);
+//! * [`IdentifyConfig::max_failed_iterations`] consecutive iterations in which
+//!   *both* solves failed (not merely failed to improve): if some step had been
+//!   accepted before, the best model so far is returned with
+//!   [`StopReason::SolverFailures`]; if none ever was, no progress was possible
+//!   and the result is [`Error::IdentificationFailed`].
+
+use std::io::Write;
+use std::ops::ControlFlow;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
+use crate::cost::{check_dataset, model_cost, Cost};
+use crate::dataset::Dataset;
+use crate::entropy_search::{check_eta, entropy_search, EntropySearchOptions};
+use crate::error::{check_finite, check_len, Error, Result};
+use crate::metric_search::{metric_search, MetricSearchOptions, SosBasis};
+use crate::model::{identity_metric, Model};
+use crate::system::MetriplecticSystem;
+
+/// Configuration of [`identify`]. Build with struct-update syntax from
+/// [`Default`]; [`identify`] validates it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct IdentifyConfig {
+    /// `None`: Algorithm 1 on the full data. `Some(q)`: Algorithm 2, a fresh
+    /// minibatch of q distinct samples each iteration. q must be between 1
+    /// and the number of samples (a larger q is an error, not a clamp, so a
+    /// typo does not silently turn Algorithm 2 into Algorithm 1).
+    pub batch_size: Option<usize>,
+    /// Coefficient bound η: |ψₖ| ≤ η and 0 ⪯ K ⪯ ηI. Default 20 (the 2-D
+    /// paper system's largest true entropy coefficient is 16).
+    pub eta: f64,
+    /// Iteration cap (each iteration = one metric and one entropy search).
+    pub max_iterations: usize,
+    /// Stop when the per-component cost on the iteration's batch is ≤ this.
+    pub tolerance: f64,
+    /// Seed of the minibatch generator (ChaCha8): equal seeds give equal runs.
+    pub seed: u64,
+    /// Initial entropy coefficients ψ⁽⁰⁾ (`None`: zeros).
+    pub initial_entropy: Option<Vec<f64>>,
+    /// Initial metric coefficients θ⁽⁰⁾ (`None`: the identity metric).
+    pub initial_metric: Option<Vec<f64>>,
+    /// Clarabel settings for both subproblems.
+    pub solver: SolverSettings,
+    /// How the L1 objectives are written for Clarabel.
+    pub formulation: L1Formulation,
+    /// SOS tables for the metric search.
+    pub sos: SosBasis,
+    /// Give up after this many consecutive iterations in which both solves failed.
+    pub max_failed_iterations: usize,
+}
+
+impl Default for IdentifyConfig {
+    fn default() -> Self {
+        Self {
+            batch_size: None,
+            eta: 20.0,
+            max_iterations: 100,
+            tolerance: 1e-9,
+            seed: 0,
+            initial_entropy: None,
+            initial_metric: None,
+            solver: SolverSettings::default(),
+            formulation: L1Formulation::default(),
+            sos: SosBasis::default(),
+            max_failed_iterations: 3,
+        }
+    }
+}
+
+impl IdentifyConfig {
+    /// Checks the configuration against system `S` and a dataset of
+    /// `samples` samples.
+    pub fn validate<S: MetriplecticSystem>(&self, samples: usize) -> Result<()> {
+        let invalid = |what: &str, reason: String| Error::InvalidArgument {
+            what: what.to_owned(),
+            reason,
+        };
+        match self.batch_size {
+            Some(0) => {
+                return Err(invalid(
+                    "batch size",
+                    "must be at least 1 (use None for the full batch)".to_owned(),
+                ))
+            }
+            Some(q) if q > samples => {
+                return Err(invalid(
+                    "batch size",
+                    format!(
+                        "{q} exceeds the {samples} samples of the dataset (use None for the full batch)"
+                    ),
+                ))
+            }
+            _ => {}
+        }
+        check_eta(self.eta)?;
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(invalid(
+                "tolerance",
+                format!("{} is not a finite non-negative number", self.tolerance),
+            ));
+        }
+        if self.max_iterations == 0 {
+            return Err(invalid("max_iterations", "must be at least 1".to_owned()));
+        }
+        if self.max_failed_iterations == 0 {
+            return Err(invalid(
+                "max_failed_iterations",
+                "must be at least 1".to_owned(),
+            ));
+        }
+        if let Some(entropy) = &self.initial_entropy {
+            check_len(
+                "initial entropy coefficients",
+                entropy,
+                S::entropy_coefficient_count(),
+            )?;
+            check_finite("initial entropy coefficients", entropy)?;
+        }
+        if let Some(metric) = &self.initial_metric {
+            check_len(
+                "initial metric coefficients",
+                metric,
+                S::metric_coefficient_count(),
+            )?;
+            check_finite("initial metric coefficients", metric)?;
+        }
+        self.solver.validate()
+    }
+}
+
+/// What became of one subproblem's result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum StepOutcome {
+    /// The result replaced the current model.
+    Accepted,
+    /// The solve succeeded but its cost on the batch was higher than the
+    /// current model's; the current model was kept.
+    RejectedWorse,
+    /// The solve failed (status not usable, or non-finite coefficients);
+    /// the current model was kept.
+    RejectedFailed,
+}
+
+/// One subproblem of one iteration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepRecord {
+    /// Solver status, iterations, timings and the candidate's recomputed cost.
+    pub report: SolveReport,
+    /// Whether the candidate was accepted.
+    pub outcome: StepOutcome,
+    /// Cost of the current model on the batch after this step.
+    pub cost_after: Cost,
+}
+
+/// One iteration of the identifier.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IterationRecord {
+    /// Iteration number, from 1.
+    pub iteration: usize,
+    /// Samples in this iteration's batch.
+    pub batch_size: usize,
+    /// Cost of the current model on this batch before the iteration.
+    pub cost_before: Cost,
+    /// The metric search (entropy fixed).
+    pub metric: StepRecord,
+    /// The entropy search (metric fixed).
+    pub entropy: StepRecord,
+}
+
+/// The per-iteration history of an identification run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct History {
+    /// One record per iteration, in order.
+    pub iterations: Vec<IterationRecord>,
+}
+
+impl History {
+    /// Writes the history as CSV, one row per iteration, with a header.
+    pub fn write_csv<W: Write>(&self, mut out: W) -> std::io::Result<()> {
+        writeln!(
+            out,
+            "iteration,batch_size,cost_before_sum,cost_before_per_component,\
+             metric_status,metric_outcome,metric_ipm_iterations,metric_assembly_s,metric_solver_s,\
+             metric_candidate_per_component,metric_cost_after_sum,metric_cost_after_per_component,\
+             entropy_status,entropy_outcome,entropy_ipm_iterations,entropy_assembly_s,entropy_solver_s,\
+             entropy_candidate_per_component,entropy_cost_after_sum,entropy_cost_after_per_component"
+        )?;
+        for r in &self.iterations {
+            write!(
+                out,
+                "{},{},{},{}",
+                r.iteration, r.batch_size, r.cost_before.sum, r.cost_before.per_component
+            )?;
+            for step in [&r.metric, &r.entropy] {
+                let candidate = step
+                    .report
+                    .cost
+                    .map(|c| c.per_component.to_string())
+                    .unwrap_or_default();
+                write!(
+                    out,
+                    ",{},{:?},{},{},{},{},{},{}",
+                    step.report.status,
+                    step.outcome,
+                    step.report.iterations,
+                    step.report.assembly_seconds,
+                    step.report.solver_seconds,
+                    candidate,
+                    step.cost_after.sum,
+                    step.cost_after.per_component
+                )?;
+            }
+            writeln!(out)?;
+        }
+        Ok(())
+    }
+
+    /// Counts of each solver status over both subproblems: (metric, entropy).
+    pub fn status_counts(&self) -> Vec<(SolveStatus, usize, usize)> {
+        let mut counts: Vec<(SolveStatus, usize, usize)> = Vec::new();
+        for r in &self.iterations {
+            for (status, is_metric) in [
+                (r.metric.report.status, true),
+                (r.entropy.report.status, false),
+            ] {
+                let slot = match counts.iter().position(|c| c.0 == status) {
+                    Some(i) => i,
+                    None => {
+                        counts.push((status, 0, 0));
+                        counts.len() - 1
+                    }
+                };
+                if is_metric {
+                    counts[slot].1 += 1;
+                } else {
+                    counts[slot].2 += 1;
+                }
+            }
+        }
+        counts
+    }
+}
+
+/// Why [`identify`] stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum StopReason {
+    /// The batch cost per component reached the tolerance.
+    Converged,
+    /// The iteration cap was reached.
+    MaxIterations,
+    /// The observer asked to stop.
+    Interrupted,
+    /// Consecutive iterations in which both solves failed; the best model
+    /// reached before is returned.
+    SolverFailures,
+}
+
+/// Result of [`identify`].
+#[derive(Debug, Clone)]
+pub struct Identification<S: MetriplecticSystem> {
+    /// The identified model (the last accepted iterate).
+    pub model: Model<S>,
+    /// Per-iteration records.
+    pub history: History,
+    /// Why the run stopped.
+    pub stop_reason: StopReason,
+}
+
+/// Runs Algorithm 1 or 2 (per [`IdentifyConfig::batch_size`]) on `data`.
+pub fn identify<S: MetriplecticSystem>(
+    data: &Dataset,
+    config: &IdentifyConfig,
+) -> Result<Identification<S>> {
+    identify_with_observer(data, config, |_, _| ControlFlow::Continue(()))
+}
+
+/// [`identify`] with an observer called after every iteration with its
+/// record and the current model; returning [`ControlFlow::Break`] stops the
+/// run (e.g. from a progress bar's cancel button).
+pub fn identify_with_observer<S, F>(
+    data: &Dataset,
+    config: &IdentifyConfig,
+    mut observer: F,
+) -> Result<Identification<S>>
+where
+    S: MetriplecticSystem,
+    F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
+{
+    check_dataset::<S>(data)?;
+    config.validate::<S>(data.len())?;
+    let mut model = Model::<S>::new(
+        config
+            .initial_entropy
+            .clone()
+            .unwrap_or_else(|| vec![0.0; S::entropy_coefficient_count()]),
+        config
+            .initial_metric
+            .clone()
+            .unwrap_or_else(|| identity_metric::<S>(1.0)),
+    )?;
+    let metric_options = MetricSearchOptions {
+        eta: config.eta,
+        formulation: config.formulation,
+        sos: config.sos,
+        solver: config.solver.clone(),
+    };
+    let entropy_options = EntropySearchOptions {
+        eta: config.eta,
+        formulation: config.formulation,
+        solver: config.solver.clone(),
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+    let mut history = History::default();
+    let mut failed_in_a_row = 0;
+    let mut ever_accepted = false;
+
+    for iteration in 1..=config.max_iterations {
+        let batch = match config.batch_size {
+            None => None,
+            Some(q) => {
+                let indices = rand::seq::index::sample(&mut rng, data.len(), q).into_vec();
+                Some(data.select(&indices)?)
+            }
+        };
+        let batch = batch.as_ref().unwrap_or(data);
+        let cost_before = model_cost(&model, batch)?;
+
+        let search = metric_search::<S>(batch, model.entropy_coefficients(), &metric_options)?;
+        let metric = decide(&mut model, cost_before, search.report, |m| {
+            m.set_metric_coefficients(search.coefficients)
+        });
+        let search = entropy_search::<S>(batch, model.metric_coefficients(), &entropy_options)?;
+        let entropy = decide(&mut model, metric.cost_after, search.report, |m| {
+            m.set_entropy_coefficients(search.coefficients)
+        });
+
+        let accepted = [&metric, &entropy]
+            .iter()
+            .any(|s| s.outcome == StepOutcome::Accepted);
+        ever_accepted |= accepted;
+        let both_failed = [&metric, &entropy]
+            .iter()
+            .all(|s| s.outcome == StepOutcome::RejectedFailed);
+        failed_in_a_row = if both_failed { failed_in_a_row + 1 } else { 0 };
+
+        let cost_now = entropy.cost_after;
+        let record = IterationRecord {
+            iteration,
+            batch_size: batch.len(),
+            cost_before,
+            metric,
+            entropy,
+        };
+        let flow = observer(&record, &model);
+        history.iterations.push(record);
+
+        if failed_in_a_row >= config.max_failed_iterations {
+            if !ever_accepted {
+                let last = &history.iterations[history.iterations.len() - 1];
+                return Err(Error::IdentificationFailed {
+                    iterations: iteration,
+                    reason: format!(
+                        "no subproblem was ever solved: last metric search {}, last entropy search {}",
+                        last.metric.report.status, last.entropy.report.status
+                    ),
+                });
+            }
+            return Ok(Identification {
+                model,
+                history,
+                stop_reason: StopReason::SolverFailures,
+            });
+        }
+        if cost_now.per_component <= config.tolerance {
+            return Ok(Identification {
+                model,
+                history,
+                stop_reason: StopReason::Converged,
+            });
+        }
+        if flow.is_break() {
+            return Ok(Identification {
+                model,
+                history,
+                stop_reason: StopReason::Interrupted,
+            });
+        }
+    }
+    Ok(Identification {
+        model,
+        history,
+        stop_reason: StopReason::MaxIterations,
+    })
+}
+
+/// Accepts a candidate if its solve is usable and its recomputed cost is
+/// finite and no worse than `current`; `apply` installs it.
+fn decide<S: MetriplecticSystem>(
+    model: &mut Model<S>,
+    current: Cost,
+    report: SolveReport,
+    apply: impl FnOnce(&mut Model<S>) -> Result<()>,
+) -> StepRecord {
+    let outcome = match report.cost {
+        Some(candidate) if report.status.is_usable() && candidate.is_finite() => {
+            if candidate.sum <= current.sum && apply(model).is_ok() {
+                StepOutcome::Accepted
+            } else if candidate.sum <= current.sum {
+                StepOutcome::RejectedFailed
+            } else {
+                StepOutcome::RejectedWorse
+            }
+        }
+        _ => StepOutcome::RejectedFailed,
+    };
+    let cost_after = match (outcome, report.cost) {
+        (StepOutcome::Accepted, Some(candidate)) => candidate,
+        _ => current,
+    };
+    StepRecord {
+        report,
+        outcome,
+        cost_after,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_system::{reference_data, Quadratic2d};
+
+    fn assert_non_increasing(history: &History) {
+        let mut previous = f64::INFINITY;
+        for record in &history.iterations {
+            for cost in [
+                record.cost_before.sum,
+                record.metric.cost_after.sum,
+                record.entropy.cost_after.sum,
+            ] {
+                assert!(cost <= previous, "cost rose from {previous} to {cost}");
+                previous = cost;
+            }
+        }
+    }
+
+    #[test]
+    fn full_batch_cost_never_increases() {
+        // From ψ = 0 the alternation stalls at a bad stationary point (the
+        // metric search shrinks K towards 0); Theorem 1 still holds.
+        let data = reference_data(60, 11);
+        let config = IdentifyConfig {
+            max_iterations: 6,
+            tolerance: 0.0,
+            ..IdentifyConfig::default()
+        };
+        let result = identify::<Quadratic2d>(&data, &config).unwrap();
+        assert_eq!(result.history.iterations.len(), 6);
+        assert_non_increasing(&result.history);
+        let first = result.history.iterations[0].cost_before.sum;
+        let last = result.history.iterations[5].entropy.cost_after.sum;
+        assert!(last < 0.5 * first, "{first} -> {last}");
+    }
+
+    #[test]
+    fn full_batch_from_a_perturbed_truth_fits_the_data() {
+        let data = reference_data(60, 11);
+        let start: Vec<f64> = Quadratic2d::REFERENCE_ENTROPY
+            .unwrap()
+            .iter()
+            .zip([0.05, -0.1, 0.08, -0.03, 0.1])
+            .map(|(c, d)| c + d)
+            .collect();
+        let config = IdentifyConfig {
+            max_iterations: 20,
+            tolerance: 1e-9,
+            initial_entropy: Some(start),
+            ..IdentifyConfig::default()
+        };
+        let result = identify::<Quadratic2d>(&data, &config).unwrap();
+        assert_non_increasing(&result.history);
+        assert_eq!(result.stop_reason, StopReason::Converged);
+        let cost = model_cost(&result.model, &data).unwrap();
+        assert!(cost.per_component <= 1e-9, "{cost:?}");
+    }
+
+    #[test]
+    fn minibatches_are_reproducible_for_a_seed() {
+        let data = reference_data(50, 12);
+        let config = IdentifyConfig {
+            batch_size: Some(10),
+            max_iterations: 3,
+            tolerance: 0.0,
+            seed: 7,
+            initial_entropy: Some(vec![0.1; 5]),
+            ..IdentifyConfig::default()
+        };
+        let costs = |config: &IdentifyConfig| -> Vec<f64> {
+            identify::<Quadratic2d>(&data, config)
+                .unwrap()
+                .history
+                .iterations
+                .iter()
+                .map(|r| r.cost_before.sum)
+                .collect()
+        };
+        let first = costs(&config);
+        assert_eq!(first, costs(&config));
+        let other_seed = IdentifyConfig {
+            seed: 8,
+            ..config.clone()
+        };
+        assert_ne!(first, costs(&other_seed));
+    }
+
+    #[test]
+    fn observer_can_stop_the_run() {
+        let data = reference_data(20, 13);
+        let mut seen = 0;
+        let result = identify_with_observer::<Quadratic2d, _>(
+            &data,
+            &IdentifyConfig {
+                tolerance: 0.0,
+                ..IdentifyConfig::default()
+            },
+            |record, _model| {
+                seen += 1;
+                assert_eq!(record.iteration, seen);
+                ControlFlow::Break(())
+            },
+        )
+        .unwrap();
+        assert_eq!(seen, 1);
+        assert_eq!(result.stop_reason, StopReason::Interrupted);
+        assert_eq!(result.history.iterations.len(), 1);
+    }
+
+    #[test]
+    fn history_serialises_to_json_and_csv() {
+        let data = reference_data(20, 14);
+        let result = identify::<Quadratic2d>(
+            &data,
+            &IdentifyConfig {
+                max_iterations: 2,
+                tolerance: 0.0,
+                ..IdentifyConfig::default()
+            },
+        )
+        .unwrap();
+        let json = serde_json::to_string(&result.history).unwrap();
+        let back: History = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, result.history);
+        let mut csv = Vec::new();
+        result.history.write_csv(&mut csv).unwrap();
+        let text = String::from_utf8(csv).unwrap();
+        assert_eq!(text.lines().count(), 3);
+        let columns = text.lines().next().unwrap().split(',').count();
+        assert!(text.lines().all(|l| l.split(',').count() == columns));
+    }
+
+    #[test]
+    fn invalid_configurations_are_errors() {
+        let data = reference_data(10, 15);
+        let bad = [
+            IdentifyConfig {
+                batch_size: Some(0),
+                ..IdentifyConfig::default()
+            },
+            IdentifyConfig {
+                batch_size: Some(11),
+                ..IdentifyConfig::default()
+            },
+            IdentifyConfig {
+                eta: 0.0,
+                ..IdentifyConfig::default()
+            },
+            IdentifyConfig {
+                eta: f64::NAN,
+                ..IdentifyConfig::default()
+            },
+            IdentifyConfig {
+                tolerance: f64::INFINITY,
+                ..IdentifyConfig::default()
+            },
+            IdentifyConfig {
+                initial_entropy: Some(vec![0.0; 4]),
+                ..IdentifyConfig::default()
+            },
+            IdentifyConfig {
+                initial_metric: Some(vec![f64::NAN; 18]),
+                ..IdentifyConfig::default()
+            },
+            IdentifyConfig {
+                solver: SolverSettings {
+                    max_iter: 0,
+                    ..SolverSettings::default()
+                },
+                ..IdentifyConfig::default()
+            },
+        ];
+        for config in &bad {
+            let err = identify::<Quadratic2d>(&data, config).unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    Error::InvalidArgument { .. }
+                        | Error::DimensionMismatch { .. }
+                        | Error::NonFinite { .. }
+                ),
+                "{config:?} gave {err}"
+            );
+        }
+        let wrong_dim = Dataset::from_flat(3, vec![0.0; 3], vec![0.0; 3]).unwrap();
+        assert!(matches!(
+            identify::<Quadratic2d>(&wrong_dim, &IdentifyConfig::default()),
+            Err(Error::DimensionMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn failed_solves_never_replace_the_model() {
+        // One interior-point iteration cannot solve anything: every step
+        // fails, the model stays at its start, and with nothing ever
+        // accepted the run ends in a typed error.
+        let data = reference_data(20, 16);
+        let config = IdentifyConfig {
+            solver: SolverSettings {
+                max_iter: 1,
+                ..SolverSettings::default()
+            },
+            max_failed_iterations: 2,
+            ..IdentifyConfig::default()
+        };
+        let mut models = Vec::new();
+        let err = identify_with_observer::<Quadratic2d, _>(&data, &config, |record, model| {
+            assert_eq!(record.metric.outcome, StepOutcome::RejectedFailed);
+            assert_eq!(record.entropy.outcome, StepOutcome::RejectedFailed);
+            assert_eq!(record.metric.report.status, SolveStatus::MaxIterations);
+            models.push(model.clone());
+            ControlFlow::Continue(())
+        })
+        .unwrap_err();
+        assert!(
+            matches!(err, Error::IdentificationFailed { iterations: 2, .. }),
+            "{err}"
+        );
+        let start =
+            Model::<Quadratic2d>::new(vec![0.0; 5], identity_metric::<Quadratic2d>(1.0)).unwrap();
+        assert!(models.iter().all(|m| *m == start));
+    }
+}
