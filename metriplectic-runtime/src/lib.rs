@@ -81,7 +81,11 @@ pub use error::{Error, Result};
 pub use metric_search::{metric_search, MetricSearch, MetricSearchOptions, SosBasis};
 pub use metriplectic_macros::metriplectic;
 pub use model::Model;
+pub use csv_io::{read_trajectories, write_trajectories, CsvError, WriteMode};
+pub use derivative::{estimate_derivatives, DerivativeMethod};
+pub use diagnostics::{free_energy_diagnostics, FreeEnergyReport};
 pub use simulate::{simulate, OutputTimes, Simulation, SimulationError, SimulationOptions};
+pub use synthesize::{synthesize, SynthesisOptions, SyntheticData};
 pub use system::{MetriplecticSystem, SosTables};
 pub use trajectory::Trajectory;
 
