@@ -1,0 +1,376 @@
+//! The code `metriplectic!` generates for the two paper systems (DESIGN.md §3),
+//! evaluated at random points against independent hand-written formulas.
+
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::system::metric_pair_index;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+metriplectic! {
+    /// The linear 2-D example: canonical Π, figure-eight free energy.
+    pub struct Linear2d;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+    entropy degree 8;
+    metric degree 2;
+    reference {
+        entropy = -0.5 * (p^2 + 4*q^4 - 4*q^2)^2 - (0.5*p^2 + 0.5*q^2);
+        metric = [[1, 0], [0, 1]];
+    }
+}
+
+metriplectic! {
+    /// The SO(3) rigid body: Lie–Poisson Π(p) = p̂, H = ½ pᵀ J⁻¹ p.
+    pub struct RigidBody;
+    state (px, py, pz);
+    const j1 = 0.1;
+    const j2 = 0.2;
+    const j3 = 0.15;
+    poisson = [[0, -pz, py], [pz, 0, -px], [-py, px, 0]];
+    hamiltonian = 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
+    entropy degree 6;
+    metric degree 2;
+    reference {
+        entropy = -0.5 * (px^2 + py^2 + pz^2 - 1)^2 - 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
+        metric = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
+    }
+}
+
+const POINTS: usize = 200;
+
+fn random_points(dim: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..POINTS)
+        .map(|_| (0..dim).map(|_| rng.random_range(-1.5..1.5)).collect())
+        .collect()
+}
+
+fn random_vector(len: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    (0..len).map(|_| rng.random_range(-1.0..1.0)).collect()
+}
+
+/// |a − b| ≤ tol · max(1, |b|), with a message naming the quantity.
+fn assert_close(what: &str, a: f64, b: f64, tol: f64) {
+    assert!(
+        (a - b).abs() <= tol * b.abs().max(1.0),
+        "{what}: generated {a} vs hand-written {b}"
+    );
+}
+
+fn assert_all_close(what: &str, a: &[f64], b: &[f64], tol: f64) {
+    assert_eq!(a.len(), b.len(), "{what}: lengths differ");
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        assert_close(&format!("{what}[{i}]"), *x, *y, tol);
+    }
+}
+
+fn mat_vec(m: &[f64], v: &[f64]) -> Vec<f64> {
+    let n = v.len();
+    (0..m.len() / n)
+        .map(|i| (0..n).map(|j| m[i * n + j] * v[j]).sum())
+        .collect()
+}
+
+// ---- hand-written formulas --------------------------------------------------
+
+struct Formulas {
+    hamiltonian: fn(&[f64]) -> f64,
+    hamiltonian_gradient: fn(&[f64]) -> Vec<f64>,
+    poisson: fn(&[f64]) -> Vec<f64>,
+    free_energy: fn(&[f64]) -> f64,
+    free_energy_gradient: fn(&[f64]) -> Vec<f64>,
+}
+
+const LINEAR_2D: Formulas = Formulas {
+    hamiltonian: |x| 0.5 * (x[0] * x[0] + x[1] * x[1]),
+    hamiltonian_gradient: |x| vec![x[0], x[1]],
+    poisson: |_| vec![0.0, 1.0, -1.0, 0.0],
+    free_energy: |x| {
+        let (q, p) = (x[0], x[1]);
+        let u = p * p + 4.0 * q.powi(4) - 4.0 * q * q;
+        -0.5 * u * u
+    },
+    free_energy_gradient: |x| {
+        let (q, p) = (x[0], x[1]);
+        let u = p * p + 4.0 * q.powi(4) - 4.0 * q * q;
+        vec![-u * (16.0 * q.powi(3) - 8.0 * q), -u * 2.0 * p]
+    },
+};
+
+const INERTIA: [f64; 3] = [0.1, 0.2, 0.15];
+
+const RIGID_BODY: Formulas = Formulas {
+    hamiltonian: |x| 0.5 * (0..3).map(|i| x[i] * x[i] / INERTIA[i]).sum::<f64>(),
+    hamiltonian_gradient: |x| (0..3).map(|i| x[i] / INERTIA[i]).collect(),
+    poisson: |x| {
+        let (a, b, c) = (x[0], x[1], x[2]);
+        vec![0.0, -c, b, c, 0.0, -a, -b, a, 0.0]
+    },
+    free_energy: |x| {
+        let r = x.iter().map(|v| v * v).sum::<f64>() - 1.0;
+        -0.5 * r * r
+    },
+    free_energy_gradient: |x| {
+        let r = x.iter().map(|v| v * v).sum::<f64>() - 1.0;
+        x.iter().map(|v| -2.0 * r * v).collect()
+    },
+};
+
+// ---- checks shared by both systems -----------------------------------------
+
+fn check_known_parts<S: MetriplecticSystem>(f: &Formulas, seed: u64) {
+    let n = S::DIM;
+    for x in random_points(n, seed) {
+        assert_close("H", S::hamiltonian(&x), (f.hamiltonian)(&x), 1e-13);
+        let mut grad = vec![0.0; n];
+        S::hamiltonian_gradient(&x, &mut grad);
+        assert_all_close("∇H", &grad, &(f.hamiltonian_gradient)(&x), 1e-13);
+        let mut poisson = vec![0.0; n * n];
+        S::poisson(&x, &mut poisson);
+        assert_all_close("Π", &poisson, &(f.poisson)(&x), 0.0);
+    }
+}
+
+fn check_reference<S: MetriplecticSystem>(f: &Formulas, seed: u64) {
+    let n = S::DIM;
+    let model = Model::<S>::reference().expect("reference model");
+    // The generated ψ drops the constant term of S_ref = E − H (it does not
+    // affect the dynamics): the model's entropy is S_ref − S_ref(0).
+    let origin = vec![0.0; n];
+    let dropped = (f.free_energy)(&origin) - (f.hamiltonian)(&origin);
+    for x in random_points(n, seed) {
+        let h = (f.hamiltonian)(&x);
+        let e = (f.free_energy)(&x);
+        assert_close("S_ref", model.entropy(&x).unwrap(), e - h - dropped, 1e-11);
+        assert_close("E_ref", model.free_energy(&x).unwrap(), e - dropped, 1e-11);
+
+        let grad_e = (f.free_energy_gradient)(&x);
+        let mut grad = vec![0.0; n];
+        model.free_energy_gradient(&x, &mut grad).unwrap();
+        assert_all_close("∇E_ref", &grad, &grad_e, 1e-11);
+        let mut grad_s = vec![0.0; n];
+        S::entropy_gradient(&x, model.entropy_coefficients(), &mut grad_s);
+        let expected: Vec<f64> = grad_e
+            .iter()
+            .zip((f.hamiltonian_gradient)(&x))
+            .map(|(e, h)| e - h)
+            .collect();
+        assert_all_close("∇S_ref", &grad_s, &expected, 1e-11);
+
+        let mut metric = vec![0.0; n * n];
+        model.metric(&x, &mut metric).unwrap();
+        let identity: Vec<f64> = (0..n * n)
+            .map(|i| if i % (n + 1) == 0 { 1.0 } else { 0.0 })
+            .collect();
+        assert_all_close("K_ref", &metric, &identity, 0.0);
+
+        // f(x) = (Π + I) ∇E.
+        let mut operator = (f.poisson)(&x);
+        for j in 0..n {
+            operator[j * n + j] += 1.0;
+        }
+        let mut xdot = vec![0.0; n];
+        model.vector_field(&x, &mut xdot).unwrap();
+        assert_all_close("f_ref", &xdot, &mat_vec(&operator, &grad_e), 1e-11);
+        assert_close(
+            "dE/dt",
+            model.free_energy_rate(&x).unwrap(),
+            grad_e.iter().map(|g| g * g).sum(),
+            1e-11,
+        );
+    }
+}
+
+fn check_features<S: MetriplecticSystem>(seed: u64) {
+    let n = S::DIM;
+    let p = S::entropy_coefficient_count();
+    let m = S::METRIC_EXPONENTS.len();
+    let monomial = |e: &[u32], x: &[f64]| -> f64 {
+        e.iter().zip(x).map(|(&k, &v)| v.powi(k as i32)).product()
+    };
+    for x in random_points(n, seed) {
+        let mut features = vec![0.0; p];
+        S::entropy_features(&x, &mut features);
+        let direct: Vec<f64> = S::ENTROPY_EXPONENTS
+            .iter()
+            .map(|e| monomial(e, &x))
+            .collect();
+        assert_all_close("φ_r", &features, &direct, 1e-13);
+
+        let mut metric_features = vec![0.0; m];
+        S::metric_features(&x, &mut metric_features);
+        let direct: Vec<f64> = S::METRIC_EXPONENTS
+            .iter()
+            .map(|e| monomial(e, &x))
+            .collect();
+        assert_all_close("φ_s", &metric_features, &direct, 1e-13);
+
+        // Jacobian against central differences of the generated features.
+        let mut jacobian = vec![0.0; p * n];
+        S::entropy_jacobian(&x, &mut jacobian);
+        let h = 1e-6;
+        for j in 0..n {
+            let (mut plus, mut minus) = (x.clone(), x.clone());
+            plus[j] += h;
+            minus[j] -= h;
+            let (mut fp, mut fm) = (vec![0.0; p], vec![0.0; p]);
+            S::entropy_features(&plus, &mut fp);
+            S::entropy_features(&minus, &mut fm);
+            for k in 0..p {
+                let fd = (fp[k] - fm[k]) / (2.0 * h);
+                assert_close(&format!("J[{k}][{j}]"), jacobian[k * n + j], fd, 1e-6);
+            }
+        }
+    }
+}
+
+/// The assembly blocks reproduce the vector field of a random model:
+/// drift + block · ψ and drift + block · θ both equal (Π + K)(∇H + ∇S).
+fn check_blocks<S: MetriplecticSystem>(seed: u64) {
+    let n = S::DIM;
+    let p = S::entropy_coefficient_count();
+    let t = S::metric_coefficient_count();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xb10c);
+    for x in random_points(n, seed) {
+        let model = Model::<S>::new(random_vector(p, &mut rng), random_vector(t, &mut rng))
+            .expect("random model");
+        let mut xdot = vec![0.0; n];
+        model.vector_field(&x, &mut xdot).unwrap();
+        let scale = xdot.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+
+        let mut metric = vec![0.0; n * n];
+        model.metric(&x, &mut metric).unwrap();
+        let mut block = vec![0.0; n * p];
+        let mut drift = vec![0.0; n];
+        S::entropy_block(&x, &metric, &mut block, &mut drift);
+        let lhs: Vec<f64> = mat_vec(&block, model.entropy_coefficients())
+            .iter()
+            .zip(&drift)
+            .map(|(a, b)| a + b)
+            .collect();
+        for j in 0..n {
+            assert_close("entropy block row", lhs[j] / scale, xdot[j] / scale, 1e-11);
+        }
+
+        let mut gradient = vec![0.0; n];
+        model.free_energy_gradient(&x, &mut gradient).unwrap();
+        let mut block = vec![0.0; n * t];
+        S::metric_block(&x, &gradient, &mut block, &mut drift);
+        let lhs: Vec<f64> = mat_vec(&block, model.metric_coefficients())
+            .iter()
+            .zip(&drift)
+            .map(|(a, b)| a + b)
+            .collect();
+        for j in 0..n {
+            assert_close("metric block row", lhs[j] / scale, xdot[j] / scale, 1e-11);
+        }
+
+        // K(x) from θ by hand: K_jk = Σ_a θ_(jk),a φ_a(x).
+        let mut features = vec![0.0; S::METRIC_EXPONENTS.len()];
+        S::metric_features(&x, &mut features);
+        let m = features.len();
+        for j in 0..n {
+            for k in 0..n {
+                let pair = metric_pair_index(n, j, k);
+                let theta = &model.metric_coefficients()[pair * m..(pair + 1) * m];
+                let value: f64 = theta.iter().zip(&features).map(|(a, b)| a * b).sum();
+                assert_close("K(θ)", metric[j * n + k], value, 1e-13);
+            }
+        }
+    }
+}
+
+fn check_tables<S: MetriplecticSystem>(entropy: usize, metric: usize, half: usize) {
+    assert_eq!(S::ENTROPY_EXPONENTS.len(), entropy);
+    assert_eq!(S::METRIC_EXPONENTS.len(), metric);
+    assert!(S::METRIC_EXPONENTS[0].iter().all(|&k| k == 0));
+    assert!(S::ENTROPY_EXPONENTS.iter().all(|e| e.iter().sum::<u32>() >= 1));
+    assert_eq!(S::SOS_FULL.exponents.len(), half);
+    assert_eq!(S::SOS_FULL.matching.len(), metric);
+    for (alpha, pairs) in S::SOS_FULL.matching.iter().enumerate() {
+        assert!(!pairs.is_empty(), "metric monomial {alpha} has no Gram pair");
+        for &(b, g) in pairs.iter() {
+            let sum: Vec<u32> = S::SOS_FULL.exponents[b as usize]
+                .iter()
+                .zip(S::SOS_FULL.exponents[g as usize])
+                .map(|(x, y)| x + y)
+                .collect();
+            assert_eq!(sum.as_slice(), S::METRIC_EXPONENTS[alpha]);
+        }
+    }
+    assert_eq!(S::SOS_REDUCED.exponents.len(), 1);
+    assert_eq!(S::SOS_REDUCED.matching[0], &[(0, 0)]);
+    assert!(S::SOS_REDUCED.matching[1..].iter().all(|p| p.is_empty()));
+}
+
+#[test]
+fn linear_2d_known_parts() {
+    check_known_parts::<Linear2d>(&LINEAR_2D, 1);
+}
+
+#[test]
+fn linear_2d_reference_model() {
+    check_reference::<Linear2d>(&LINEAR_2D, 2);
+    assert_eq!(
+        Linear2d::reference_model().unwrap(),
+        Model::<Linear2d>::reference().unwrap()
+    );
+    // The reference entropy's true coefficients: −8 q⁸ is the largest in
+    // magnitude besides 16 q⁶ (DESIGN.md §3: η ≥ 16).
+    let psi = Linear2d::REFERENCE_ENTROPY.unwrap();
+    let max = psi.iter().fold(0.0f64, |a, c| a.max(c.abs()));
+    assert_eq!(max, 16.0);
+}
+
+#[test]
+fn linear_2d_features_and_jacobian() {
+    check_features::<Linear2d>(3);
+}
+
+#[test]
+fn linear_2d_assembly_blocks() {
+    check_blocks::<Linear2d>(4);
+}
+
+#[test]
+fn linear_2d_tables() {
+    // 44 entropy monomials (degree 1..=8), 6 metric monomials, m(x) = (1, q, p).
+    check_tables::<Linear2d>(44, 6, 3);
+    assert_eq!(Linear2d::STATE_NAMES, &["q", "p"]);
+    assert_eq!(Linear2d::NAME, "Linear2d");
+}
+
+#[test]
+fn rigid_body_known_parts() {
+    check_known_parts::<RigidBody>(&RIGID_BODY, 5);
+}
+
+#[test]
+fn rigid_body_reference_model() {
+    check_reference::<RigidBody>(&RIGID_BODY, 6);
+    // p̂ ∇E = 0: the true flow is radial (DESIGN.md §3).
+    let model = RigidBody::reference_model().unwrap();
+    for x in random_points(3, 7) {
+        let mut xdot = [0.0; 3];
+        model.vector_field(&x, &mut xdot).unwrap();
+        let grad_e = (RIGID_BODY.free_energy_gradient)(&x);
+        assert_all_close("radial flow", &xdot, &grad_e, 1e-11);
+    }
+}
+
+#[test]
+fn rigid_body_features_and_jacobian() {
+    check_features::<RigidBody>(8);
+}
+
+#[test]
+fn rigid_body_assembly_blocks() {
+    check_blocks::<RigidBody>(9);
+}
+
+#[test]
+fn rigid_body_tables() {
+    // 83 entropy monomials (degree 1..=6 in 3 variables), 10 metric monomials.
+    check_tables::<RigidBody>(83, 10, 4);
+}
