@@ -1,0 +1,102 @@
+//! Shared look of the figures: text sizes and colours.
+
+use plotters::style::{IntoFont, RGBColor, TextStyle};
+
+use super::font::FAMILY;
+
+/// Title text.
+pub(crate) fn title() -> TextStyle<'static> {
+    (FAMILY, 34).into_font().into()
+}
+
+/// Axis names.
+pub(crate) fn axis_name() -> TextStyle<'static> {
+    (FAMILY, 28).into_font().into()
+}
+
+/// Tick labels, legend entries and notes.
+pub(crate) fn small() -> TextStyle<'static> {
+    (FAMILY, 22).into_font().into()
+}
+
+/// Trajectories.
+pub(crate) const TRAJECTORY: RGBColor = RGBColor(31, 119, 180);
+/// Start points.
+pub(crate) const START: RGBColor = RGBColor(214, 39, 40);
+/// Reference curve or surface.
+pub(crate) const REFERENCE: RGBColor = RGBColor(0, 0, 0);
+/// Light grid lines.
+pub(crate) const GRID: RGBColor = RGBColor(225, 225, 225);
+
+/// Distinguishable colours for a few named series (matplotlib's "tab10").
+pub(crate) const SERIES: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+];
+
+/// Width of the legend's sample column and the length of a sample line.
+pub(crate) const LEGEND_AREA: u32 = 48;
+/// Length of a legend's sample line (shorter than [`LEGEND_AREA`] so it clears the text).
+pub(crate) const LEGEND_LINE: i32 = 36;
+
+/// A tick label without trailing zeros: `1`, `0.5`, `-1.5`, `250`.
+pub(crate) fn number(v: &f64) -> String {
+    let v = if v.abs() < 1e-12 { 0.0 } else { *v };
+    let text = format!("{v:.4}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" {
+        "0".to_owned()
+    } else {
+        text.to_owned()
+    }
+}
+
+/// A log-axis tick label: `10⁻³` for powers of ten, `3e-4` otherwise.
+pub(crate) fn power_of_ten(v: &f64) -> String {
+    // `+ 0.0` turns −0 (from values just below 1) into 0.
+    let exponent = v.log10().round() + 0.0;
+    if (v / 10f64.powf(exponent) - 1.0).abs() > 1e-9 {
+        return format!("{v:.0e}");
+    }
+    let digits: String = format!("{exponent:.0}")
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            '0' => '⁰',
+            '1' => '¹',
+            '2' => '²',
+            '3' => '³',
+            '4' => '⁴',
+            '5' => '⁵',
+            '6' => '⁶',
+            '7' => '⁷',
+            '8' => '⁸',
+            '9' => '⁹',
+            other => other,
+        })
+        .collect();
+    format!("10{digits}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_are_tidy() {
+        assert_eq!(number(&1.0), "1");
+        assert_eq!(number(&-1.5), "-1.5");
+        assert_eq!(number(&250.0), "250");
+        assert_eq!(number(&-1e-17), "0");
+        assert_eq!(number(&0.125), "0.125");
+        assert_eq!(power_of_ten(&1.0), "10⁰");
+        assert_eq!(power_of_ten(&(1.0 - 1e-15)), "10⁰");
+        assert_eq!(power_of_ten(&1e-14), "10⁻¹⁴");
+        assert_eq!(power_of_ten(&100.0), "10²");
+        assert_eq!(power_of_ten(&3e-4), "3e-4");
+    }
+}

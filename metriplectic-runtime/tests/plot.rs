@@ -1,0 +1,467 @@
+//! Tests of the `plot` feature: every figure is written as a valid PNG and
+//! SVG from synthetic data shaped like the paper's, and bad paths and bad data
+//! are rejected with the right typed error before anything is written.
+//!
+//! Set `METRIPLECTIC_PLOT_DIR=/some/dir` to keep the rendered figures there
+//! for inspection; by default they go to a scratch directory that is removed.
+
+use std::f64::consts::TAU;
+use std::path::{Path, PathBuf};
+
+use metriplectic_runtime::plot::{
+    free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels, PlotError,
+};
+use metriplectic_runtime::Error;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// A fresh output directory for one test.
+struct OutDir {
+    path: PathBuf,
+    keep: bool,
+}
+
+impl OutDir {
+    fn new(test: &str) -> Self {
+        let (path, keep) = match std::env::var_os("METRIPLECTIC_PLOT_DIR") {
+            Some(dir) => (PathBuf::from(dir), true),
+            None => (
+                std::env::temp_dir()
+                    .join(format!("metriplectic-plot-{}-{test}", std::process::id())),
+                false,
+            ),
+        };
+        std::fs::create_dir_all(&path).unwrap();
+        OutDir { path, keep }
+    }
+
+    fn file(&self, name: &str) -> PathBuf {
+        self.path.join(name)
+    }
+}
+
+impl Drop for OutDir {
+    fn drop(&mut self) {
+        if !self.keep {
+            let _ = std::fs::remove_dir_all(&self.path);
+        }
+    }
+}
+
+const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
+
+/// Decodes the PNG and returns (width, height, number of distinct colours).
+fn check_png(path: &Path) -> (u32, u32, usize) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(bytes[..8], PNG_SIGNATURE, "{} is not a PNG", path.display());
+    let decoder = png::Decoder::new(std::io::Cursor::new(&bytes));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    let mut colours: Vec<[u8; 3]> = pixels[..info.buffer_size()]
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    colours.sort_unstable();
+    colours.dedup();
+    (info.width, info.height, colours.len())
+}
+
+/// Returns the SVG text after checking it is a well-formed-looking SVG document.
+fn check_svg(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(
+        text.contains("<svg"),
+        "{} has no <svg element",
+        path.display()
+    );
+    assert!(
+        text.trim_end().ends_with("</svg>"),
+        "{} is not closed",
+        path.display()
+    );
+    assert_eq!(
+        text.matches("<svg").count(),
+        text.matches("</svg>").count(),
+        "unbalanced svg elements"
+    );
+    text
+}
+
+/// Point of the figure eight (cos t, sin 2t), the zero set of the 2-D free energy.
+fn eight(t: f64) -> [f64; 2] {
+    [t.cos(), (2.0 * t).sin()]
+}
+
+/// 200 planar curves from random starts that wind onto the figure eight.
+fn planar_trajectories(rng: &mut ChaCha8Rng) -> Vec<Vec<[f64; 2]>> {
+    (0..200)
+        .map(|_| {
+            let start = [rng.random_range(-1.6..1.6), rng.random_range(-1.6..1.6)];
+            let phase = rng.random_range(0.0..TAU);
+            let anchor = eight(phase);
+            (0..400)
+                .map(|i| {
+                    let t = 0.02 * i as f64;
+                    let on = eight(phase + 0.8 * t);
+                    let decay = (-0.9 * t).exp();
+                    [
+                        on[0] + (start[0] - anchor[0]) * decay,
+                        on[1] + (start[1] - anchor[1]) * decay,
+                    ]
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Curves from random starts in a ball converging radially onto the unit sphere
+/// while turning about the vertical axis.
+fn spatial_trajectories(rng: &mut ChaCha8Rng, count: usize) -> Vec<Vec<Vec<f64>>> {
+    (0..count)
+        .map(|_| {
+            let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
+            let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-3);
+            let r0 = rng.random_range(0.3..1.7);
+            (0..300)
+                .map(|i| {
+                    let t = 0.02 * i as f64;
+                    let r = 1.0 + (r0 - 1.0) * (-1.5 * t).exp();
+                    let (c, s) = ((0.4 * t).cos(), (0.4 * t).sin());
+                    let (x, y, z) = (v[0] / norm, v[1] / norm, v[2] / norm);
+                    vec![r * (c * x - s * y), r * (s * x + c * y), r * z]
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn eight_curve() -> Vec<(f64, f64)> {
+    (0..=600)
+        .map(|i| {
+            let [q, p] = eight(TAU * i as f64 / 600.0);
+            (q, p)
+        })
+        .collect()
+}
+
+fn planar_labels() -> Labels<'static> {
+    Labels {
+        title: "2-D metriplectic system: trajectories",
+        x: "q",
+        y: "p",
+        reference: "zero set of E: (cos t, sin 2t)",
+        ..Labels::default()
+    }
+}
+
+#[test]
+fn phase_portrait_writes_png_and_svg() {
+    let out = OutDir::new("phase");
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let trajectories = planar_trajectories(&mut rng);
+    let zero_set = eight_curve();
+
+    let png = out.file("phase_portrait.png");
+    phase_portrait_2d(&png, &trajectories, &zero_set, &planar_labels()).unwrap();
+    let (w, h, colours) = check_png(&png);
+    assert!(w >= 800 && h >= 800, "{w}x{h}");
+    // Lines, dots, text and anti-aliasing give many colours; a blank or
+    // single-colour image would have 1–2.
+    assert!(colours > 50, "only {colours} colours");
+
+    let svg = out.file("phase_portrait.svg");
+    phase_portrait_2d(&svg, &trajectories, &zero_set, &planar_labels()).unwrap();
+    let text = check_svg(&svg);
+    assert!(text.contains("zero set of E"), "legend missing");
+    // One red start dot per trajectory.
+    assert!(text.matches("<circle").count() >= trajectories.len());
+}
+
+#[test]
+fn trajectories_3d_writes_png_and_svg() {
+    let out = OutDir::new("sphere");
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    let trajectories = spatial_trajectories(&mut rng, 120);
+    let labels = Labels {
+        title: "SO(3) rigid body: trajectories",
+        x: "p_x",
+        y: "p_y",
+        z: "p_z",
+        reference: "unit sphere (E = 0)",
+    };
+    let png = out.file("trajectories_3d.png");
+    trajectories_3d(&png, &trajectories, Some(1.0), &labels).unwrap();
+    let (w, h, colours) = check_png(&png);
+    assert!(w >= 800 && h >= 800, "{w}x{h}");
+    assert!(colours > 50, "only {colours} colours");
+
+    let svg = out.file("trajectories_3d.svg");
+    trajectories_3d(&svg, &trajectories, None, &labels).unwrap();
+    let text = check_svg(&svg);
+    assert!(
+        !text.contains("unit sphere"),
+        "sphere drawn although not asked for"
+    );
+    assert!(text.contains("p_z"));
+}
+
+#[test]
+fn loss_curves_write_png_and_svg_and_note_clamped_zeros() {
+    let out = OutDir::new("loss");
+    // Superlinear decrease like the paper's Fig. 2, with chattering; the
+    // entropy cost reaches exactly 0 at the end (drawn at the floor).
+    let metric: Vec<f64> = (0..700)
+        .map(|k| {
+            let k = k as f64;
+            10f64.powf(-0.012 * k - 1e-5 * k * k) * (1.0 + 0.3 * (0.7 * k).sin())
+        })
+        .collect();
+    let mut entropy: Vec<f64> = metric.iter().map(|v| 0.6 * v).collect();
+    entropy[690..].iter_mut().for_each(|v| *v = 0.0);
+    let labels = Labels {
+        title: "2-D system: loss of Algorithm 2",
+        x: "iteration",
+        y: "cost per residual component",
+        ..Labels::default()
+    };
+    let series = [
+        ("metric search", &metric[..]),
+        ("entropy search", &entropy[..]),
+    ];
+
+    let png = out.file("loss.png");
+    loss_curves(&png, &series, &labels).unwrap();
+    let (_, _, colours) = check_png(&png);
+    assert!(colours > 20, "only {colours} colours");
+
+    let svg = out.file("loss.svg");
+    loss_curves(&svg, &series, &labels).unwrap();
+    let text = check_svg(&svg);
+    assert!(text.contains("metric search") && text.contains("entropy search"));
+    assert!(
+        text.contains("values ≤ 0 drawn at"),
+        "clamping note missing"
+    );
+
+    // Without zeros there is no note.
+    let positive = [("metric search", &metric[..])];
+    let svg = out.file("loss_positive.svg");
+    loss_curves(&svg, &positive, &labels).unwrap();
+    assert!(!check_svg(&svg).contains("values ≤ 0"));
+}
+
+#[test]
+fn free_energy_curves_write_png_and_svg() {
+    let out = OutDir::new("energy");
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let curves: Vec<(Vec<f64>, Vec<f64>)> = (0..200)
+        .map(|_| {
+            let e0 = -rng.random_range(1e-3..2.0);
+            let rate = rng.random_range(1.0..3.0);
+            let times: Vec<f64> = (0..=200).map(|i| 0.05 * i as f64).collect();
+            let energy = times.iter().map(|t| e0 * (-rate * t).exp()).collect();
+            (times, energy)
+        })
+        .collect();
+    let labels = Labels {
+        title: "free energy along simulated trajectories",
+        x: "time t",
+        y: "−E",
+        ..Labels::default()
+    };
+    let png = out.file("free_energy.png");
+    free_energy_curves(&png, &curves, &labels).unwrap();
+    let (_, _, colours) = check_png(&png);
+    assert!(colours > 20, "only {colours} colours");
+    let svg = out.file("free_energy.svg");
+    free_energy_curves(&svg, &curves, &labels).unwrap();
+    assert!(check_svg(&svg).contains("−E"));
+}
+
+fn plot_error(result: metriplectic_runtime::Result<()>) -> PlotError {
+    match result {
+        Err(Error::Plot(err)) => err,
+        other => panic!("expected a plot error, got {other:?}"),
+    }
+}
+
+#[test]
+fn unsupported_extensions_are_rejected_before_writing() {
+    let out = OutDir::new("ext");
+    let traj = vec![vec![[0.0, 0.0], [1.0, 1.0]]];
+    let labels = Labels::default();
+    for name in ["figure.jpg", "figure", "figure.png.txt"] {
+        let path = out.file(name);
+        let err = plot_error(phase_portrait_2d(&path, &traj, &[], &labels));
+        assert!(
+            matches!(&err, PlotError::UnsupportedFormat { path: p } if p == &path),
+            "{name}: {err}"
+        );
+        assert!(err.to_string().contains(".png or .svg"));
+        assert!(!path.exists());
+    }
+    // Upper-case extensions are accepted.
+    let upper = out.file("figure.SVG");
+    phase_portrait_2d(&upper, &traj, &[], &labels).unwrap();
+    check_svg(&upper);
+
+    let spatial = vec![vec![[0.0, 0.0, 0.0]]];
+    let series = [("a", &[1.0][..])];
+    let pairs = [(vec![0.0], vec![-1.0])];
+    let bmp = out.file("figure.bmp");
+    assert!(matches!(
+        plot_error(trajectories_3d(&bmp, &spatial, Some(1.0), &labels)),
+        PlotError::UnsupportedFormat { .. }
+    ));
+    assert!(matches!(
+        plot_error(loss_curves(&bmp, &series, &labels)),
+        PlotError::UnsupportedFormat { .. }
+    ));
+    assert!(matches!(
+        plot_error(free_energy_curves(&bmp, &pairs, &labels)),
+        PlotError::UnsupportedFormat { .. }
+    ));
+}
+
+#[test]
+fn bad_trajectories_are_rejected_with_their_position() {
+    let out = OutDir::new("badtraj");
+    let path = out.file("bad.png");
+    let labels = Labels::default();
+
+    let none: Vec<Vec<[f64; 2]>> = vec![];
+    assert!(matches!(
+        plot_error(phase_portrait_2d(&path, &none, &[], &labels)),
+        PlotError::Empty { .. }
+    ));
+    let empty_one: Vec<Vec<[f64; 2]>> = vec![vec![[0.0, 1.0]], vec![]];
+    match plot_error(phase_portrait_2d(&path, &empty_one, &[], &labels)) {
+        PlotError::Empty { what } => assert_eq!(what, "trajectory 1"),
+        other => panic!("{other}"),
+    }
+    let wrong_dim = vec![vec![vec![0.0, 1.0], vec![0.0, 1.0, 2.0]]];
+    match plot_error(phase_portrait_2d(&path, &wrong_dim, &[], &labels)) {
+        PlotError::PointDimension {
+            trajectory: 0,
+            point: 1,
+            expected: 2,
+            found: 3,
+        } => {}
+        other => panic!("{other}"),
+    }
+    let nan = vec![
+        vec![[0.0, 1.0]],
+        vec![[0.0, 1.0], [2.0, 2.0], [f64::NAN, 0.0]],
+    ];
+    match plot_error(phase_portrait_2d(&path, &nan, &[], &labels)) {
+        PlotError::NonFinite { what, index, value } => {
+            assert_eq!((what.as_str(), index), ("trajectory 1", 2));
+            assert!(value.is_nan());
+        }
+        other => panic!("{other}"),
+    }
+    let ok = vec![vec![[0.0, 1.0]]];
+    match plot_error(phase_portrait_2d(
+        &path,
+        &ok,
+        &[(0.0, 0.0), (f64::INFINITY, 1.0)],
+        &labels,
+    )) {
+        PlotError::NonFinite {
+            what,
+            index: 1,
+            value,
+        } => {
+            assert_eq!(what, "zero set");
+            assert_eq!(value, f64::INFINITY);
+        }
+        other => panic!("{other}"),
+    }
+
+    let planar_in_3d = vec![vec![[0.0, 1.0]]];
+    assert!(matches!(
+        plot_error(trajectories_3d(&path, &planar_in_3d, Some(1.0), &labels)),
+        PlotError::PointDimension {
+            expected: 3,
+            found: 2,
+            ..
+        }
+    ));
+    let spatial = vec![vec![[0.0, 1.0, 0.5]]];
+    for radius in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(matches!(
+            plot_error(trajectories_3d(&path, &spatial, Some(radius), &labels)),
+            PlotError::InvalidArgument { .. }
+        ));
+    }
+    assert!(!path.exists(), "a rejected figure must not leave a file");
+}
+
+#[test]
+fn bad_curves_are_rejected_with_their_name() {
+    let out = OutDir::new("badcurves");
+    let path = out.file("bad.svg");
+    let labels = Labels::default();
+
+    assert!(matches!(
+        plot_error(loss_curves(&path, &[], &labels)),
+        PlotError::Empty { .. }
+    ));
+    match plot_error(loss_curves(
+        &path,
+        &[("metric", &[1.0][..]), ("entropy", &[][..])],
+        &labels,
+    )) {
+        PlotError::Empty { what } => assert_eq!(what, "series `entropy`"),
+        other => panic!("{other}"),
+    }
+    match plot_error(loss_curves(
+        &path,
+        &[("metric", &[1.0, f64::NAN][..])],
+        &labels,
+    )) {
+        PlotError::NonFinite { what, index: 1, .. } => assert_eq!(what, "series `metric`"),
+        other => panic!("{other}"),
+    }
+    assert!(matches!(
+        plot_error(loss_curves(&path, &[("metric", &[0.0, -1.0][..])], &labels)),
+        PlotError::NoPositiveValues { .. }
+    ));
+
+    let mismatched = [(vec![0.0, 1.0], vec![-1.0])];
+    assert!(matches!(
+        plot_error(free_energy_curves(&path, &mismatched, &labels)),
+        PlotError::LengthMismatch {
+            left: 2,
+            right: 1,
+            ..
+        }
+    ));
+    let bad_time = [(vec![0.0, f64::NAN], vec![-1.0, -0.5])];
+    match plot_error(free_energy_curves(&path, &bad_time, &labels)) {
+        PlotError::NonFinite { what, index: 1, .. } => {
+            assert_eq!(what, "free-energy curve 0 (times)")
+        }
+        other => panic!("{other}"),
+    }
+    // E > 0 everywhere means −E is never positive: nothing to show on a log axis.
+    let above_max = [(vec![0.0, 1.0], vec![1.0, 0.5])];
+    assert!(matches!(
+        plot_error(free_energy_curves(&path, &above_max, &labels)),
+        PlotError::NoPositiveValues { .. }
+    ));
+    assert!(!path.exists(), "a rejected figure must not leave a file");
+}
+
+#[test]
+fn unwritable_path_is_an_io_error_naming_it() {
+    let out = OutDir::new("io");
+    let path = out.file("missing-dir").join("figure.png");
+    let series = [("metric", &[1.0, 0.1][..])];
+    match plot_error(loss_curves(&path, &series, &Labels::default())) {
+        PlotError::Io { path: p, .. } => assert_eq!(p, path),
+        other => panic!("{other}"),
+    }
+}
