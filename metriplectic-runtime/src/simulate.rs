@@ -21,7 +21,10 @@
 //!
 //! the first-order change of E caused by a state error of the size the
 //! integrator controls (each component's local error is kept below
-//! atol + rtol·|xᵢ|). `factor` is [`SimulationOptions::energy_tolerance_factor`].
+//! atol + rtol·|xᵢ|), plus the worst-case rounding error of evaluating E in
+//! floating point at both ends, (p + r)·ε·(|H(x)| + Σₖ|ψₖ φₖ(x)|) with p
+//! entropy terms of degree ≤ r (near the zero set ∇E → 0 and only rounding
+//! is left). `factor` is [`SimulationOptions::energy_tolerance_factor`].
 
 use std::cell::Cell;
 
@@ -266,16 +269,28 @@ pub fn simulate<S: MetriplecticSystem>(
     let mut derivatives = vec![0.0; count * n];
     let mut free_energy = Vec::with_capacity(count);
     let mut gradient_norms = Vec::with_capacity(count);
+    let mut rounding = Vec::with_capacity(count);
     let mut grad = vec![0.0; n];
+    let mut features = vec![0.0; S::entropy_coefficient_count()];
+    let terms = (S::entropy_coefficient_count() + S::ENTROPY_DEGREE as usize) as f64;
     for (k, x) in solution.states.chunks_exact(n).enumerate() {
         model.vector_field_unchecked(x, &mut derivatives[k * n..(k + 1) * n]);
         free_energy.push(model.free_energy(x)?);
         model.free_energy_gradient_unchecked(x, &mut grad);
         gradient_norms.push(norm(&grad));
+        S::entropy_features(x, &mut features);
+        let magnitude = S::hamiltonian(x).abs()
+            + features
+                .iter()
+                .zip(model.entropy_coefficients())
+                .map(|(f, c)| (f * c).abs())
+                .sum::<f64>();
+        rounding.push(terms * f64::EPSILON * magnitude);
     }
     let energy = check_energy(
         &free_energy,
         &gradient_norms,
+        &rounding,
         &solution.states,
         n,
         &options.integrator,
@@ -608,6 +623,7 @@ fn validate(
 fn check_energy(
     energy: &[f64],
     gradient_norms: &[f64],
+    rounding: &[f64],
     states: &[f64],
     n: usize,
     options: &IntegratorOptions,
@@ -628,7 +644,9 @@ fn check_energy(
         }
         let error_scale = options.atol * (n as f64).sqrt()
             + options.rtol * state_norms[k].max(state_norms[k + 1]);
-        let tolerance = factor * error_scale * gradient_norms[k].max(gradient_norms[k + 1]);
+        let tolerance = factor * error_scale * gradient_norms[k].max(gradient_norms[k + 1])
+            + rounding[k]
+            + rounding[k + 1];
         let ratio = if tolerance > 0.0 {
             decrease / tolerance
         } else {

@@ -1,0 +1,322 @@
+//! Simulation: integrator accuracy against closed forms, convergence of the
+//! paper's reference models to the zero set of their free energy, and the
+//! free-energy monotonicity check (which must flag a model with K ≺ 0).
+
+mod common;
+
+use common::paper_systems::{Linear2d, RigidBody};
+use metriplectic_runtime::diagnostics::free_energy_diagnostics;
+use metriplectic_runtime::model::identity_metric;
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::simulate::{
+    integrate, simulate, IntegratorOptions, OutputTimes, SimulationOptions,
+};
+use metriplectic_runtime::synthesize::InitialStates;
+use nalgebra::Matrix3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+metriplectic! {
+    /// A metriplectic system whose flow is linear: E = −¼(q² + p²), K = I,
+    /// so ẋ = −½ (Π + I) x, a decaying rotation with a closed form.
+    pub struct Spiral;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * q^2 + 0.5 * p^2;
+    entropy degree 2;
+    metric degree 0;
+    reference {
+        entropy = -0.75 * q^2 - 0.75 * p^2;
+        metric = [[1, 0], [0, 1]];
+    }
+}
+
+fn tolerances(rtol: f64) -> IntegratorOptions {
+    IntegratorOptions {
+        rtol,
+        atol: rtol * 1e-3,
+        ..IntegratorOptions::default()
+    }
+}
+
+/// ẋ = A x with a non-normal 3×3 A against nalgebra's matrix exponential.
+#[test]
+fn linear_ode_matches_matrix_exponential_at_requested_tolerance() {
+    let a = Matrix3::new(-0.3, 2.0, 0.5, -2.0, -0.1, 1.0, 0.0, -0.7, -0.5);
+    let x0 = nalgebra::Vector3::new(1.0, -0.5, 2.0);
+    let times: Vec<f64> = (1..=20).map(|k| 0.5 * k as f64).collect();
+    let mut previous = f64::INFINITY;
+    for rtol in [1e-5, 1e-7, 1e-9, 1e-11] {
+        let sol = integrate(
+            |_t, x, dx| {
+                let v = a * nalgebra::Vector3::from_column_slice(x);
+                dx.copy_from_slice(v.as_slice());
+            },
+            x0.as_slice(),
+            0.0,
+            10.0,
+            &tolerances(rtol),
+            &OutputTimes::Times(times.clone()),
+        )
+        .unwrap();
+        let worst = sol
+            .times
+            .iter()
+            .zip(sol.states.chunks_exact(3))
+            .map(|(&t, x)| {
+                let exact = (a * t).exp() * x0;
+                let err = (nalgebra::Vector3::from_column_slice(x) - exact).norm();
+                err / exact.norm().max(1e-3)
+            })
+            .fold(0.0, f64::max);
+        println!("rtol {rtol:e}: worst relative global error {worst:.3e}, {:?}", sol.stats);
+        // Global error of an error-per-step controller: a small multiple of rtol.
+        assert!(worst < 20.0 * rtol, "rtol {rtol}: error {worst}");
+        assert!(worst < previous, "error must fall with the tolerance");
+        previous = worst;
+    }
+}
+
+/// The model code path: simulate() of a system with a closed-form flow.
+#[test]
+fn model_simulation_matches_closed_form() {
+    let model = Model::<Spiral>::reference().unwrap();
+    let x0 = [1.2, -0.4];
+    for rtol in [1e-6, 1e-9] {
+        let options = SimulationOptions {
+            integrator: tolerances(rtol),
+            output: OutputTimes::Interval(0.25),
+            ..SimulationOptions::default()
+        };
+        let sim = simulate(&model, &x0, 0.0, 8.0, &options).unwrap();
+        let traj = &sim.trajectory;
+        assert_eq!(traj.len(), 33);
+        assert_eq!(traj.names(), &["q".to_owned(), "p".to_owned()]);
+        let mut worst = 0.0f64;
+        for k in 0..traj.len() {
+            let t = traj.times()[k];
+            assert!((t - 0.25 * k as f64).abs() < 1e-12);
+            // ẋ = −½(J + I)x with J = [[0,1],[−1,0]]: x(t) = e^{−t/2} R(−t/2) x0.
+            let (s, c) = (0.5 * t).sin_cos();
+            let decay = (-0.5 * t).exp();
+            let exact = [
+                decay * (c * x0[0] - s * x0[1]),
+                decay * (s * x0[0] + c * x0[1]),
+            ];
+            let x = traj.state(k);
+            let err = ((x[0] - exact[0]).powi(2) + (x[1] - exact[1]).powi(2)).sqrt()
+                / (exact[0].powi(2) + exact[1].powi(2)).sqrt();
+            worst = worst.max(err);
+            // The trajectory carries the model's exact vector field.
+            let mut f = [0.0; 2];
+            model.vector_field(x, &mut f).unwrap();
+            assert_eq!(traj.derivative(k).unwrap(), &f);
+            assert_eq!(sim.free_energy[k], model.free_energy(x).unwrap());
+        }
+        println!("rtol {rtol:e}: worst relative error {worst:.3e}");
+        assert!(worst < 20.0 * rtol, "rtol {rtol}: {worst}");
+        assert!(sim.energy.is_non_decreasing(), "{:?}", sim.energy);
+    }
+}
+
+#[test]
+fn dense_output_agrees_with_accepted_steps() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let options = SimulationOptions {
+        integrator: tolerances(1e-8),
+        ..SimulationOptions::default()
+    };
+    let steps = simulate(&model, &[0.4, 0.3], 0.0, 2.0, &options).unwrap();
+    let step_times = steps.trajectory.times().to_vec();
+    assert!(step_times.len() > 10);
+    assert_eq!(step_times[0], 0.0);
+    assert_eq!(*step_times.last().unwrap(), 2.0);
+    let dense_options = SimulationOptions {
+        output: OutputTimes::Times(step_times.clone()),
+        ..options
+    };
+    let dense = simulate(&model, &[0.4, 0.3], 0.0, 2.0, &dense_options).unwrap();
+    let diff = dense
+        .trajectory
+        .states()
+        .iter()
+        .zip(steps.trajectory.states())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    // At a step end the dense interpolant equals the step's solution up to rounding.
+    assert!(diff < 1e-12, "dense vs steps: {diff}");
+}
+
+/// g = p² + 4q⁴ − 4q², E = −½ g²; the zero set is the figure eight (cos s, sin 2s).
+fn figure_eight_g(x: &[f64]) -> f64 {
+    x[1] * x[1] + 4.0 * x[0].powi(4) - 4.0 * x[0] * x[0]
+}
+
+fn distance_to_figure_eight(x: &[f64]) -> f64 {
+    let dist = |s: f64| ((x[0] - s.cos()).powi(2) + (x[1] - (2.0 * s).sin()).powi(2)).sqrt();
+    // Coarse scan, then golden-section refinement around the best sample.
+    let samples = 4000;
+    let step = std::f64::consts::TAU / samples as f64;
+    let best = (0..samples)
+        .map(|k| k as f64 * step)
+        .min_by(|a, b| dist(*a).total_cmp(&dist(*b)))
+        .unwrap_or(0.0);
+    let (mut lo, mut hi) = (best - step, best + step);
+    let ratio = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..100 {
+        let (a, b) = (hi - ratio * (hi - lo), lo + ratio * (hi - lo));
+        if dist(a) < dist(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    dist(0.5 * (lo + hi))
+}
+
+#[test]
+fn linear2d_reference_converges_to_the_figure_eight() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(2024);
+    let box_ = InitialStates::cube(2, 1.5);
+    let options = SimulationOptions {
+        integrator: tolerances(1e-8),
+        output: OutputTimes::Interval(0.05),
+        ..SimulationOptions::default()
+    };
+    let mut trajectories = Vec::new();
+    let mut worst_final_e = 0.0f64;
+    let mut worst_final_distance = 0.0f64;
+    for _ in 0..12 {
+        let x0 = draw(&box_, &mut rng);
+        let sim = simulate(&model, &x0, 0.0, 10.0, &options).unwrap();
+        assert!(
+            sim.energy.is_non_decreasing(),
+            "from {x0:?}: {:?}",
+            sim.energy
+        );
+        // The reference E is exactly −½ g².
+        let last = sim.trajectory.state(sim.trajectory.len() - 1);
+        let e_end = *sim.free_energy.last().unwrap();
+        assert!((e_end + 0.5 * figure_eight_g(last).powi(2)).abs() < 1e-9);
+        let d0 = distance_to_figure_eight(&x0);
+        let d_end = distance_to_figure_eight(last);
+        println!(
+            "x0 = ({:+.3}, {:+.3}): E {:.3e} → {:.3e}, distance {:.3e} → {:.3e}, {} steps",
+            x0[0], x0[1], sim.free_energy[0], e_end, d0, d_end, sim.stats.accepted_steps
+        );
+        // |g| (the distance to the zero set in E's own measure) never grows,
+        // up to the integration error: rtol·|∇g| ≲ 1e-8 · 10 on this box.
+        let g: Vec<f64> = (0..sim.trajectory.len())
+            .map(|k| figure_eight_g(sim.trajectory.state(k)).abs())
+            .collect();
+        assert!(g.windows(2).all(|w| w[1] <= w[0] + 1e-7), "|g| grew");
+        assert!(d_end < d0 || d0 < 1e-6, "distance grew: {d0} → {d_end}");
+        worst_final_e = worst_final_e.max(e_end.abs());
+        worst_final_distance = worst_final_distance.max(d_end);
+        trajectories.push(sim.trajectory);
+    }
+    println!("worst final |E| {worst_final_e:.3e}, worst final distance {worst_final_distance:.3e}");
+    assert!(worst_final_e < 1e-12, "final |E| {worst_final_e}");
+    assert!(worst_final_distance < 1e-6, "final distance {worst_final_distance}");
+    // The data-side diagnostic agrees: E never falls along the reference flow.
+    let report = free_energy_diagnostics(&model, &trajectories, 1e-9).unwrap();
+    assert_eq!(report.decreasing_steps, 0, "{report:?}");
+    assert!(report.steps > 1000);
+}
+
+#[test]
+fn rigid_body_reference_converges_to_the_unit_sphere() {
+    let model = Model::<RigidBody>::reference().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let ball = InitialStates::Ball {
+        center: vec![0.0; 3],
+        radius: 1.5,
+    };
+    let options = SimulationOptions {
+        integrator: tolerances(1e-8),
+        output: OutputTimes::Interval(0.05),
+        ..SimulationOptions::default()
+    };
+    let mut worst_end = 0.0f64;
+    for _ in 0..12 {
+        let x0 = draw(&ball, &mut rng);
+        let sim = simulate(&model, &x0, 0.0, 5.0, &options).unwrap();
+        assert!(sim.energy.is_non_decreasing(), "{:?}", sim.energy);
+        let radial: Vec<f64> = (0..sim.trajectory.len())
+            .map(|k| (norm(sim.trajectory.state(k)) - 1.0).abs())
+            .collect();
+        // p̂∇E = 0: the radial part | |p| − 1 | shrinks monotonically, up to the
+        // integration error (rtol 1e-8 on |p| ≤ 1.5).
+        assert!(radial.windows(2).all(|w| w[1] <= w[0] + 1e-7), "| |p| − 1 | grew");
+        let end = *radial.last().unwrap();
+        println!("|p0| = {:.3}: ||p| − 1| {:.3e} → {end:.3e}", norm(&x0), radial[0]);
+        worst_end = worst_end.max(end);
+    }
+    assert!(worst_end < 1e-6, "final ||p| − 1| = {worst_end}");
+}
+
+/// With K = −I the free energy falls: the check must say so.
+#[test]
+fn energy_check_flags_a_negative_metric() {
+    let reference = Model::<Linear2d>::reference().unwrap();
+    let anti = Model::<Linear2d>::new(
+        reference.entropy_coefficients().to_vec(),
+        identity_metric::<Linear2d>(-1.0),
+    )
+    .unwrap();
+    let options = SimulationOptions {
+        integrator: tolerances(1e-8),
+        output: OutputTimes::Interval(0.01),
+        ..SimulationOptions::default()
+    };
+    // Start near the zero set so that the anti-dissipative flow stays bounded for a while.
+    let sim = simulate(&anti, &[0.9, 0.3], 0.0, 0.3, &options).unwrap();
+    println!("{:?}", sim.energy);
+    assert!(!sim.energy.is_non_decreasing());
+    assert!(sim.energy.violations > sim.energy.steps / 2);
+    let report = free_energy_diagnostics(&reference, &[sim.trajectory.clone()], 0.0).unwrap();
+    // The reference model's E along the anti-dissipative flow falls too.
+    assert!(report.fraction_decreasing() > 0.5, "{report:?}");
+}
+
+#[test]
+fn integration_failures_are_typed_errors() {
+    // The anti-dissipative 2-D flow blows up in finite time from outside the figure eight.
+    let reference = Model::<Linear2d>::reference().unwrap();
+    let anti = Model::<Linear2d>::new(
+        reference.entropy_coefficients().to_vec(),
+        identity_metric::<Linear2d>(-1.0),
+    )
+    .unwrap();
+    let err = simulate(&anti, &[1.4, 1.0], 0.0, 10.0, &SimulationOptions::default()).unwrap_err();
+    println!("{err}");
+    assert!(matches!(err, Error::Simulation(_)), "{err}");
+    assert!(err.to_string().contains("integration"), "{err}");
+    let err = simulate(&reference, &[1.0], 0.0, 1.0, &SimulationOptions::default()).unwrap_err();
+    assert!(matches!(err, Error::DimensionMismatch { .. }));
+}
+
+fn draw(distribution: &InitialStates, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    use rand::Rng;
+    match distribution {
+        InitialStates::Box { lower, upper } => lower
+            .iter()
+            .zip(upper)
+            .map(|(l, u)| rng.random_range(*l..*u))
+            .collect(),
+        InitialStates::Ball { center, radius } => loop {
+            let x: Vec<f64> = center
+                .iter()
+                .map(|c| c + rng.random_range(-radius..*radius))
+                .collect();
+            if norm(&x) <= *radius {
+                break x;
+            }
+        },
+    }
+}
+
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
