@@ -679,3 +679,270 @@ fn reference_model(
         metric,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse::parse_expression;
+    use proptest::prelude::*;
+    use quote::quote;
+
+    fn scope(names: &[&str]) -> Scope {
+        let state_names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
+        let symbols = state_names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.clone(), Symbol::State(i)))
+            .collect();
+        Scope {
+            nvars: names.len(),
+            state_names,
+            symbols,
+            const_names: Vec::new(),
+        }
+    }
+
+    fn poly(text: &str, names: &[&str]) -> syn::Result<Polynomial> {
+        let tokens: proc_macro2::TokenStream = text.parse().expect("tokens");
+        let expr = parse_expression(tokens)?;
+        scope(names).polynomial(&expr, true)
+    }
+
+    /// Direct floating-point evaluation of the syntax tree, independent of
+    /// the polynomial expansion.
+    fn evaluate(expr: &Expr, names: &[&str], x: &[f64]) -> f64 {
+        match expr {
+            Expr::Number { value, .. } => value.to_f64(),
+            Expr::Name(ident) => {
+                let i = names.iter().position(|n| ident == n).expect("known name");
+                x[i]
+            }
+            Expr::Unary {
+                negate, operand, ..
+            } => {
+                let v = evaluate(operand, names, x);
+                if *negate {
+                    -v
+                } else {
+                    v
+                }
+            }
+            Expr::Paren { inner, .. } => evaluate(inner, names, x),
+            Expr::Binary {
+                op, left, right, ..
+            } => {
+                let (a, b) = (evaluate(left, names, x), evaluate(right, names, x));
+                match op {
+                    BinaryOp::Add => a + b,
+                    BinaryOp::Sub => a - b,
+                    BinaryOp::Mul => a * b,
+                    BinaryOp::Div => a / b,
+                }
+            }
+            Expr::Power { base, exponent } => {
+                evaluate(base, names, x).powf(evaluate(exponent, names, x))
+            }
+        }
+    }
+
+    #[test]
+    fn power_binds_tighter_than_minus_and_times_and_is_right_associative() {
+        let names = ["q"];
+        let value = |t: &str, q: f64| poly(t, &names).unwrap().evaluate(&[q]);
+        assert_eq!(value("-q^2", 3.0), -9.0);
+        assert_eq!(value("2*q^3", 2.0), 16.0);
+        assert_eq!(value("2^3^2", 0.0), 512.0);
+        assert_eq!(value("(2^3)^2", 0.0), 64.0);
+        assert_eq!(value("-2^2", 0.0), -4.0);
+        assert_eq!(value("q^2^0", 5.0), 5.0);
+        assert_eq!(value("1 - q - q", 1.0), -1.0);
+        assert_eq!(value("12 / 3 / 2", 0.0), 2.0);
+        assert_eq!(value("q^(1+1)", 3.0), 9.0);
+    }
+
+    #[test]
+    fn exact_coefficients() {
+        let p = poly("0.1 * q + 0.2 * q", &["q"]).unwrap();
+        assert_eq!(p.coefficient(&[1]), Rational::new(3, 10).unwrap().unwrap());
+        let p = poly("(q + 1/3)^3", &["q"]).unwrap();
+        assert_eq!(p.coefficient(&[0]), Rational::new(1, 27).unwrap().unwrap());
+        assert_eq!(p.coefficient(&[1]), Rational::new(1, 3).unwrap().unwrap());
+        assert!(poly("(q - p)*(q + p) - q^2 + p^2", &["q", "p"])
+            .unwrap()
+            .is_zero());
+    }
+
+    #[test]
+    fn non_polynomial_terms_are_rejected() {
+        let names = ["q", "p"];
+        let message = |t: &str| poly(t, &names).unwrap_err().to_string();
+        assert!(message("1 / q").contains("only constant denominators"));
+        assert!(message("q^-1").contains("negative exponent"));
+        assert!(message("q^0.5").contains("fractional exponent"));
+        assert!(message("q^(1/2)").contains("fractional exponent"));
+        assert!(message("q^p").contains("depends on the state"));
+        assert!(message("sin(q)").contains("function call"));
+        assert!(message("q.powi(2)").contains("method calls"));
+        assert!(message("q ** 2").contains("write powers with `^`"));
+        assert!(message("1 / (q - q + 0)").contains("division by zero"));
+        assert!(message("x + q").contains("unknown name `x`"));
+        assert!(message("Q + 1").contains("did you mean `q`"));
+        assert!(message("q^65").contains("too large"));
+        assert!(message("(q + p)^40 * (q + p)^40").contains("degree"));
+        assert!(message("q +").contains("expected an operand"));
+        assert!(message("q p").contains("expected an operator"));
+        assert!(message("1.5f32 * q").contains("suffix"));
+    }
+
+    #[test]
+    fn huge_numbers_overflow_into_errors_not_panics() {
+        let message = poly("100000000000000000000^3", &["q"])
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("overflowed"), "{message}");
+        let message = poly("(q + 1000000000000)^8", &["q"])
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("overflowed"), "{message}");
+    }
+
+    /// Random expression text over q, p with every operator of the DSL.
+    fn expression_text() -> impl Strategy<Value = String> {
+        let leaf = prop_oneof![
+            Just("q".to_string()),
+            Just("p".to_string()),
+            (1u32..20).prop_map(|k| k.to_string()),
+            (1u32..100).prop_map(|k| format!("{}.{}", k / 10, k % 10)),
+        ];
+        leaf.prop_recursive(4, 24, 2, |inner| {
+            prop_oneof![
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("{a} + {b}")),
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("{a} - {b}")),
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("{a} * {b}")),
+                (inner.clone(), 1u32..8).prop_map(|(a, d)| format!("({a}) / {d}")),
+                (inner.clone(), 0u32..4).prop_map(|(a, k)| format!("({a})^{k}")),
+                inner.clone().prop_map(|a| format!("-{a}")),
+                inner.prop_map(|a| format!("({a})")),
+            ]
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn expansion_matches_direct_evaluation(
+            text in expression_text(),
+            q in -2.0f64..2.0,
+            p in -2.0f64..2.0,
+        ) {
+            let names = ["q", "p"];
+            let tokens: proc_macro2::TokenStream = text.parse().unwrap();
+            let expr = parse_expression(tokens).unwrap();
+            let expanded = scope(&names).polynomial(&expr, true).unwrap();
+            let direct = evaluate(&expr, &names, &[q, p]);
+            let value = expanded.evaluate(&[q, p]);
+            prop_assert!((value - direct).abs() <= 1e-9 * direct.abs().max(1.0),
+                "{text}: expanded {value} vs direct {direct}");
+        }
+
+        #[test]
+        fn derivatives_match_finite_differences(
+            text in expression_text(),
+            q in -2.0f64..2.0,
+            p in -2.0f64..2.0,
+        ) {
+            let names = ["q", "p"];
+            let f = poly(&text, &names).unwrap();
+            let h = 1e-5;
+            for j in 0..2 {
+                let mut plus = [q, p];
+                let mut minus = [q, p];
+                plus[j] += h;
+                minus[j] -= h;
+                let fd = (f.evaluate(&plus) - f.evaluate(&minus)) / (2.0 * h);
+                let exact = f.derivative(j).unwrap().evaluate(&[q, p]);
+                // Central differences: error O(h² f''') plus rounding O(|f|/h).
+                let scale = f.evaluate(&[q, p]).abs().max(exact.abs()).max(1.0);
+                prop_assert!((fd - exact).abs() <= 1e-5 * scale,
+                    "{text}: ∂_{j} exact {exact} vs fd {fd}");
+            }
+        }
+    }
+
+    /// Π from text rows, then whether every Jacobiator vanishes.
+    fn is_poisson(rows: &[&str], names: &[&str]) -> bool {
+        let n = names.len();
+        let entries: Vec<Polynomial> = rows.iter().map(|t| poly(t, names).unwrap()).collect();
+        assert_eq!(entries.len(), n * n);
+        let derivatives: Vec<Vec<Polynomial>> = (0..n)
+            .map(|l| entries.iter().map(|p| p.derivative(l).unwrap()).collect())
+            .collect();
+        let mut ok = true;
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    ok &= jacobiator(&entries, n, (i, j, k), &derivatives)
+                        .unwrap()
+                        .is_zero();
+                }
+            }
+        }
+        ok
+    }
+
+    #[test]
+    fn jacobi_identity_on_known_tensors() {
+        assert!(is_poisson(&["0", "1", "-1", "0"], &["q", "p"]));
+        let canonical_4d = [
+            "0", "0", "1", "0", //
+            "0", "0", "0", "1", //
+            "-1", "0", "0", "0", //
+            "0", "-1", "0", "0",
+        ];
+        assert!(is_poisson(&canonical_4d, &["q1", "q2", "p1", "p2"]));
+        let so3 = ["0", "-z", "y", "z", "0", "-x", "-y", "x", "0"];
+        assert!(is_poisson(&so3, &["x", "y", "z"]));
+        // Skew but not Poisson: Π_ij = ε_ijk v_k with v = (0, x, 1), v·curl v = 1.
+        let not_poisson = ["0", "1", "-x", "-1", "0", "0", "x", "0", "0"];
+        assert!(!is_poisson(&not_poisson, &["x", "y", "z"]));
+        // [[0, z, 0], [-z, 0, x], [0, -x, 0]] looks suspicious but is Poisson:
+        // v = (x, 0, z) is a gradient, so v·curl v = 0.
+        let curl_free = ["0", "z", "0", "-z", "0", "x", "0", "-x", "0"];
+        assert!(is_poisson(&curl_free, &["x", "y", "z"]));
+    }
+
+    fn expand_error(tokens: proc_macro2::TokenStream) -> String {
+        crate::expand(tokens).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn system_level_checks() {
+        let jacobi = expand_error(quote! {
+            struct S; state (x, y, z);
+            poisson = [[0, 1, -x], [-1, 0, 0], [x, 0, 0]];
+            hamiltonian = x^2; entropy degree 2; metric degree 0;
+        });
+        assert!(
+            jacobi.contains("Jacobi identity") && jacobi.contains("(x, y, z)"),
+            "{jacobi}"
+        );
+        let skew = expand_error(quote! {
+            struct S; state (q, p);
+            poisson = [[0, q], [q, 0]];
+            hamiltonian = q^2; entropy degree 2; metric degree 0;
+        });
+        assert!(skew.contains("write Π[1][0] = `-q`"), "{skew}");
+        let odd = expand_error(quote! {
+            struct S; state (q, p);
+            poisson = [[0, 1], [-1, 0]];
+            hamiltonian = q^2; entropy degree 2; metric degree 3;
+        });
+        assert!(odd.contains("odd"), "{odd}");
+        let big = expand_error(quote! {
+            struct S; state (a, b, c, d, e, f, g, h);
+            poisson = [[0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0],
+                       [0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0]];
+            hamiltonian = a^2; entropy degree 12; metric degree 0;
+        });
+        assert!(big.contains("at most 20000"), "{big}");
+    }
+}

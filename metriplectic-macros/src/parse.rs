@@ -781,3 +781,9 @@ fn number(literal: proc_macro2::Literal) -> syn::Result<Expr> {
         Err(overflow) => Err(syn::Error::new(span, overflow)),
     }
 }
+
+/// Parses a lone expression (for the engine's tests).
+#[cfg(test)]
+pub fn parse_expression(tokens: TokenStream) -> syn::Result<Expr> {
+    ExprParser::new(tokens.into_iter().collect()).parse_all()
+}
