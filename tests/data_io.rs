@@ -1,0 +1,487 @@
+//! Data in and out: trajectory CSV (exact round trip, every malformed-input
+//! class rejected with line, column and wording) and seeded synthesis
+//! (reproducibility, exact derivatives, noise and outliers as documented,
+//! held-out split by trajectory).
+
+mod common;
+
+use std::path::PathBuf;
+
+use common::paper_systems::{Linear2d, RigidBody};
+use metriplectic_runtime::csv_io::{
+    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
+    CsvError, WriteMode,
+};
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::synthesize::{
+    synthesize, InitialStates, Noise, Outliers, SampleTimes, SynthesisOptions,
+};
+use metriplectic_runtime::Trajectory;
+
+const NAMES: &[&str] = &["q", "p"];
+
+fn read(text: &str) -> Result<Vec<Trajectory>> {
+    read_trajectories_from(text.as_bytes(), NAMES)
+}
+
+fn csv_error(text: &str) -> (CsvError, String) {
+    match read(text) {
+        Err(Error::Csv(e)) => {
+            let msg = e.to_string();
+            (e, msg)
+        }
+        other => panic!("expected a CSV error for {text:?}, got {other:?}"),
+    }
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("metriplectic-data-io-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    let _ = std::fs::remove_file(&path);
+    path
+}
+
+fn awkward_trajectory(id: &str, with_derivatives: bool) -> Trajectory {
+    // Values whose decimal forms are long or extreme: the round trip must keep every bit.
+    let times = vec![0.0, 0.1 + 0.2, 1.0 / 3.0, 1.0 + f64::EPSILON, 12345.678901234567];
+    let states = vec![
+        0.1,
+        -0.0,
+        1.0 / 3.0,
+        -2.0 / 3.0,
+        f64::MIN_POSITIVE,
+        5e-324,
+        f64::MAX,
+        -f64::MAX,
+        std::f64::consts::PI,
+        -1e-17,
+    ];
+    let derivatives = with_derivatives.then(|| states.iter().map(|v| v / 7.0).collect());
+    Trajectory::new(
+        NAMES.iter().map(|s| (*s).to_owned()).collect(),
+        times,
+        states,
+        derivatives,
+    )
+    .unwrap()
+    .with_id(id)
+}
+
+fn bits(t: &Trajectory) -> Vec<u64> {
+    t.times()
+        .iter()
+        .chain(t.states())
+        .chain(t.derivatives().unwrap_or(&[]))
+        .map(|v| v.to_bits())
+        .collect()
+}
+
+#[test]
+fn round_trip_is_bit_exact() {
+    for with_derivatives in [true, false] {
+        let trajs = vec![
+            awkward_trajectory("run-a", with_derivatives),
+            awkward_trajectory("run b, quoted", with_derivatives),
+        ];
+        let path = scratch(&format!("round_trip_{with_derivatives}.csv"));
+        write_trajectories(&path, &trajs, WriteMode::CreateNew).unwrap();
+        let back = read_trajectories::<Linear2d>(&path).unwrap();
+        assert_eq!(back.len(), 2);
+        for (a, b) in trajs.iter().zip(&back) {
+            assert_eq!(a.id(), b.id());
+            assert_eq!(bits(a), bits(b), "bits changed in the round trip");
+        }
+        // Writing never overwrites unless asked.
+        let err = write_trajectories(&path, &trajs, WriteMode::CreateNew).unwrap_err();
+        assert!(matches!(err, Error::FileExists { .. }), "{err}");
+        assert!(err.to_string().contains("refusing to overwrite"), "{err}");
+        assert_eq!(read_trajectories::<Linear2d>(&path).unwrap(), back);
+        write_trajectories(&path, &trajs[..1], WriteMode::Overwrite).unwrap();
+        assert_eq!(read_trajectories::<Linear2d>(&path).unwrap().len(), 1);
+    }
+}
+
+#[test]
+fn single_trajectory_without_id_round_trips_without_id_column() {
+    let traj = awkward_trajectory("x", true);
+    let plain = Trajectory::new(
+        traj.names().to_vec(),
+        traj.times().to_vec(),
+        traj.states().to_vec(),
+        traj.derivatives().map(<[f64]>::to_vec),
+    )
+    .unwrap();
+    let mut text = Vec::new();
+    write_trajectories_to(&mut text, std::slice::from_ref(&plain)).unwrap();
+    let text = String::from_utf8(text).unwrap();
+    assert!(text.starts_with("t,q,p,dq,dp\n"), "{text}");
+    let back = read(&text).unwrap();
+    assert_eq!(back, vec![plain]);
+}
+
+#[test]
+fn columns_in_any_order_with_spaces_and_ids() {
+    let text = "dp, p ,trajectory,t,q,dq\n\
+                1,2,a,0,3,4\n\
+                5,6,a,0.5,7,8\n\
+                9,10,b,-1,11,12\n";
+    let trajs = read(text).unwrap();
+    assert_eq!(trajs.len(), 2);
+    assert_eq!(trajs[0].id(), Some("a"));
+    assert_eq!(trajs[0].times(), &[0.0, 0.5]);
+    assert_eq!(trajs[0].state(1), &[7.0, 6.0]);
+    assert_eq!(trajs[0].derivative(1).unwrap(), &[8.0, 5.0]);
+    assert_eq!(trajs[1].state(0), &[11.0, 10.0]);
+    // Time may restart in a new trajectory.
+    assert_eq!(trajs[1].times(), &[-1.0]);
+}
+
+#[test]
+fn header_errors_name_the_columns() {
+    let (e, msg) = csv_error("");
+    assert!(matches!(e, CsvError::NoHeader { .. }));
+    assert!(msg.contains("empty input") && msg.contains("`t`, `q`, `p`"), "{msg}");
+
+    let (e, msg) = csv_error("t,q\n0,1\n");
+    assert_eq!(
+        e,
+        CsvError::MissingColumns {
+            missing: vec!["p".into()],
+            expected: match &e {
+                CsvError::MissingColumns { expected, .. } => expected.clone(),
+                _ => unreachable!(),
+            }
+        }
+    );
+    assert!(msg.starts_with("line 1: missing column(s) `p`; expected columns: `t`, `q`, `p` (required); `dq`, `dp` (optional, all or none); `trajectory` (optional)"), "{msg}");
+
+    let (_, msg) = csv_error("q,p\n0,1\n");
+    assert!(msg.contains("missing column(s) `t`"), "{msg}");
+
+    let (e, msg) = csv_error("t,q,p,x,speed\n0,1,2,3,4\n");
+    assert!(matches!(&e, CsvError::UnknownColumns { unknown, .. } if unknown == &["x", "speed"]));
+    assert!(msg.contains("unknown column(s) `x`, `speed`; expected columns:"), "{msg}");
+
+    let (e, msg) = csv_error("t,q,p,q\n0,1,2,3\n");
+    assert_eq!(
+        e,
+        CsvError::DuplicateColumn {
+            name: "q".into(),
+            first: 2,
+            second: 4
+        }
+    );
+    assert!(msg.contains("column `q` appears twice (columns 2 and 4)"), "{msg}");
+
+    let (e, msg) = csv_error("t,q,p,dq\n0,1,2,3\n");
+    assert!(matches!(e, CsvError::PartialDerivatives { .. }));
+    assert!(msg.contains("found `dq`, missing `dp`"), "{msg}");
+
+    let (e, msg) = csv_error("t,q,p\n");
+    assert_eq!(e, CsvError::NoRows);
+    assert!(msg.contains("no data rows"), "{msg}");
+}
+
+#[test]
+fn cell_errors_name_line_and_column() {
+    let (e, msg) = csv_error("t,q,p\n0,1,2\n0.1,1\n");
+    assert_eq!(
+        e,
+        CsvError::FieldCount {
+            line: 3,
+            expected: 3,
+            found: 2
+        }
+    );
+    assert_eq!(msg, "line 3: 2 cell(s), but the header has 3 columns");
+
+    let (_, msg) = csv_error("t,q,p\n0,1,2,9\n");
+    assert_eq!(msg, "line 2: 4 cell(s), but the header has 3 columns");
+
+    let (e, msg) = csv_error("t,q,p\n0,1,2\n0.1,abc,2\n");
+    assert_eq!(
+        e,
+        CsvError::NotANumber {
+            line: 3,
+            column: 2,
+            name: "q".into(),
+            text: "abc".into()
+        }
+    );
+    assert_eq!(msg, "line 3, column 2 (`q`): `abc` is not a number");
+
+    let (_, msg) = csv_error("t,q,p\n0,1,\n");
+    assert_eq!(msg, "line 2, column 3 (`p`): `` is not a number");
+
+    for bad in ["NaN", "inf", "-infinity", "1e999"] {
+        let (e, msg) = csv_error(&format!("p,q,t\n1,2,0\n{bad},2,1\n"));
+        assert!(matches!(e, CsvError::NonFinite { line: 3, column: 1, .. }), "{bad}: {e:?}");
+        assert_eq!(
+            msg,
+            format!("line 3, column 1 (`p`): non-finite value `{bad}` (NaN and infinities are not allowed)")
+        );
+    }
+
+    let (e, msg) = csv_error("t,q,p\n0,1,2\n0.5,1,2\n0.5,1,2\n");
+    assert!(matches!(
+        e,
+        CsvError::NonIncreasingTime {
+            line: 4,
+            column: 1,
+            previous_line: 3,
+            ..
+        }
+    ));
+    assert_eq!(
+        msg,
+        "line 4, column 1 (`t`): time 0.5 does not come after 0.5 on line 3: times must strictly increase within a trajectory"
+    );
+    let (_, msg) = csv_error("q,trajectory,p,t\n1,r1,2,0\n1,r1,2,1\n1,r1,2,0.5\n");
+    assert_eq!(
+        msg,
+        "line 4, column 4 (`t`): time 0.5 does not come after 1 on line 3 in trajectory `r1`: times must strictly increase within a trajectory"
+    );
+
+    let (e, msg) = csv_error("trajectory,t,q,p\na,0,1,2\n,1,1,2\n");
+    assert_eq!(e, CsvError::EmptyTrajectoryId { line: 3, column: 1 });
+    assert!(msg.contains("line 3, column 1 (`trajectory`): empty trajectory identifier"), "{msg}");
+
+    let (e, msg) = csv_error("trajectory,t,q,p\na,0,1,2\nb,0,1,2\na,1,1,2\n");
+    assert_eq!(
+        e,
+        CsvError::SplitTrajectory {
+            line: 4,
+            id: "a".into(),
+            first_line: 2
+        }
+    );
+    assert!(msg.contains("must be contiguous"), "{msg}");
+
+    let mut bytes = b"t,q,p\n0,1,2\n1,".to_vec();
+    bytes.extend_from_slice(&[0xff, 0xfe]);
+    bytes.extend_from_slice(b",2\n");
+    match read_trajectories_from(bytes.as_slice(), NAMES) {
+        Err(Error::Csv(CsvError::Malformed { line, message })) => {
+            assert_eq!(line, 3);
+            assert!(message.contains("UTF-8"), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn reserved_state_names_and_writer_checks() {
+    let err = read_trajectories_from("t,x,dx\n0,1,2\n".as_bytes(), &["x", "dx"]).unwrap_err();
+    assert!(err.to_string().contains("`dx` clashes"), "{err}");
+    let err = read_trajectories_from("t\n0\n".as_bytes(), &["t"]).unwrap_err();
+    assert!(err.to_string().contains("reserves for the time"), "{err}");
+
+    let a = awkward_trajectory("a", true);
+    let b = awkward_trajectory("b", false);
+    let err = write_trajectories_to(Vec::new(), &[a, b]).unwrap_err();
+    assert!(err.to_string().contains("all trajectories carry derivatives or none"), "{err}");
+    assert!(write_trajectories_to(Vec::new(), &[]).is_err());
+
+    let missing = std::env::temp_dir().join("metriplectic-no-such-dir/x.csv");
+    let err = read_trajectories::<Linear2d>(&missing).unwrap_err();
+    assert!(matches!(err, Error::Io { .. }), "{err}");
+    assert!(err.to_string().contains("metriplectic-no-such-dir"), "{err}");
+}
+
+fn synthesis_options(seed: u64) -> SynthesisOptions {
+    SynthesisOptions {
+        trajectories: 8,
+        duration: 3.0,
+        held_out_trajectories: 2,
+        seed,
+        ..SynthesisOptions::new(
+            InitialStates::cube(2, 1.5),
+            SampleTimes::LogUniform {
+                count: 40,
+                first: 1e-3,
+            },
+        )
+    }
+}
+
+#[test]
+fn synthesis_is_reproducible_by_seed_and_exact() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let a = synthesize(&model, &synthesis_options(11)).unwrap();
+    let b = synthesize(&model, &synthesis_options(11)).unwrap();
+    let c = synthesize(&model, &synthesis_options(12)).unwrap();
+    assert_eq!(a, b, "same seed, same data");
+    assert_ne!(a.train.states(), c.train.states(), "different seed, different data");
+
+    assert_eq!(a.trajectories.len(), 8);
+    assert_eq!(a.train_trajectories, 6);
+    assert_eq!(a.train.len(), 6 * 40);
+    assert_eq!(a.held_out.as_ref().unwrap().len(), 2 * 40);
+    let mut f = [0.0; 2];
+    for (x, xdot) in a.train.iter() {
+        assert!(x.iter().all(|v| v.abs() <= 1.5 + 1e-12));
+        model.vector_field(x, &mut f).unwrap();
+        assert_eq!(xdot, &f, "ẋ must be the exact vector field");
+    }
+    for traj in &a.trajectories {
+        let t = traj.times();
+        assert!(t[0] >= 1e-3 && *t.last().unwrap() <= 3.0);
+        // Log-uniform: about half the samples fall below the geometric midpoint √(1e-3·3) ≈ 0.055.
+        let early = t.iter().filter(|&&t| t < (3e-3f64).sqrt()).count();
+        assert!((8..=32).contains(&early), "{early} of 40 early samples");
+    }
+    // Held-out = the last trajectories, whole.
+    let held = a.held_out.as_ref().unwrap();
+    assert_eq!(held.state(0), a.trajectories[6].state(0));
+    assert_eq!(held.state(79), a.trajectories[7].state(39));
+
+    // Uniform sampling and a ball of initial states, for the rigid body.
+    let rigid = Model::<RigidBody>::reference().unwrap();
+    let options = SynthesisOptions {
+        trajectories: 3,
+        ..SynthesisOptions::new(
+            InitialStates::Ball {
+                center: vec![0.0; 3],
+                radius: 1.5,
+            },
+            SampleTimes::Uniform { interval: 0.1 },
+        )
+    };
+    let data = synthesize(&rigid, &options).unwrap();
+    assert_eq!(data.train.len(), 3 * 11);
+    assert!(data.trajectories.iter().all(|t| {
+        let x = t.state(0);
+        (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt() <= 1.5
+    }));
+}
+
+#[test]
+fn noise_and_outliers_are_as_documented() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let clean = synthesize(&model, &synthesis_options(5)).unwrap();
+    let noisy_options = SynthesisOptions {
+        noise: Noise {
+            state_std: 0.01,
+            derivative_std: 0.1,
+        },
+        outliers: Some(Outliers {
+            fraction: 0.1,
+            magnitude: 50.0,
+        }),
+        ..synthesis_options(5)
+    };
+    let noisy = synthesize(&model, &noisy_options).unwrap();
+    // Noise and outlier settings do not change the trajectories (separate streams).
+    assert_eq!(noisy.trajectories, clean.trajectories);
+
+    let m = clean.train.len();
+    let expected_outliers = (0.1 * m as f64).round() as usize;
+    assert_eq!(noisy.outlier_samples.len(), expected_outliers);
+    let std_of = |a: &[f64], b: &[f64]| {
+        let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt()
+    };
+    let state_std = std_of(noisy.train.states(), clean.train.states());
+    println!("measured state noise σ = {state_std:.4} (480 values, requested 0.01)");
+    assert!((state_std / 0.01 - 1.0).abs() < 0.15, "{state_std}");
+
+    // Derivative noise only where no outlier was added; outliers only where listed.
+    let mut inliers_noisy = Vec::new();
+    let mut inliers_clean = Vec::new();
+    let mut outlier_offsets = Vec::new();
+    for i in 0..m {
+        let (dn, dc) = (noisy.train.derivative(i), clean.train.derivative(i));
+        if noisy.outlier_samples.binary_search(&i).is_ok() {
+            outlier_offsets.extend(dn.iter().zip(dc).map(|(a, b)| a - b));
+        } else {
+            inliers_noisy.extend_from_slice(dn);
+            inliers_clean.extend_from_slice(dc);
+        }
+    }
+    let derivative_std = std_of(&inliers_noisy, &inliers_clean);
+    println!("measured derivative noise σ = {derivative_std:.4} (requested 0.1)");
+    assert!((derivative_std / 0.1 - 1.0).abs() < 0.15, "{derivative_std}");
+    let outlier_rms =
+        (outlier_offsets.iter().map(|v| v * v).sum::<f64>() / outlier_offsets.len() as f64).sqrt();
+    println!("outlier offset rms = {outlier_rms:.2} over {} values (requested 50)", outlier_offsets.len());
+    assert!((outlier_rms / 50.0 - 1.0).abs() < 0.35, "{outlier_rms}");
+
+    // Held-out samples are noisy but never corrupted.
+    let held_noisy = noisy.held_out.as_ref().unwrap();
+    let held_clean = clean.held_out.as_ref().unwrap();
+    let held_max = held_noisy
+        .derivatives()
+        .iter()
+        .zip(held_clean.derivatives())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(held_max > 0.0 && held_max < 1.0, "held-out derivative deviation {held_max}");
+}
+
+#[test]
+fn synthesis_rejects_bad_options() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let check = |options: SynthesisOptions, needle: &str| {
+        let err = synthesize(&model, &options).unwrap_err().to_string();
+        assert!(err.contains(needle), "{err} lacks {needle}");
+    };
+    check(
+        SynthesisOptions {
+            held_out_trajectories: 8,
+            ..synthesis_options(0)
+        },
+        "at least one trajectory must remain",
+    );
+    check(
+        SynthesisOptions {
+            initial: InitialStates::cube(3, 1.0),
+            ..synthesis_options(0)
+        },
+        "expected length 2",
+    );
+    check(
+        SynthesisOptions {
+            times: SampleTimes::LogUniform { count: 5, first: 10.0 },
+            ..synthesis_options(0)
+        },
+        "must lie in (0, duration",
+    );
+    check(
+        SynthesisOptions {
+            outliers: Some(Outliers {
+                fraction: 1.5,
+                magnitude: 1.0,
+            }),
+            ..synthesis_options(0)
+        },
+        "outlier fraction",
+    );
+    check(
+        SynthesisOptions {
+            noise: Noise {
+                state_std: -1.0,
+                derivative_std: 0.0,
+            },
+            ..synthesis_options(0)
+        },
+        "state noise",
+    );
+}
+
+#[test]
+fn simulated_trajectories_round_trip_through_csv() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let data = synthesize(&model, &synthesis_options(3)).unwrap();
+    let path = scratch("synthetic.csv");
+    write_trajectories(&path, &data.trajectories, WriteMode::CreateNew).unwrap();
+    let back = read_trajectories::<Linear2d>(&path).unwrap();
+    assert_eq!(back, data.trajectories);
+    let err = read_trajectories::<RigidBody>(&path).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("unknown column(s) `q`, `p`, `dq`, `dp`; expected columns: `t`, `px`, `py`, `pz`"),
+        "{err}"
+    );
+}
