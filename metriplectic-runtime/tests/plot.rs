@@ -465,3 +465,54 @@ fn unwritable_path_is_an_io_error_naming_it() {
         other => panic!("{other}"),
     }
 }
+
+#[test]
+fn degenerate_but_valid_data_still_renders() {
+    let out = OutDir::new("degenerate");
+    let labels = Labels::default();
+    // A single state, no reference curve.
+    let point = vec![vec![[0.0, 0.0]]];
+    let path = out.file("single_point.png");
+    phase_portrait_2d(&path, &point, &[], &labels).unwrap();
+    check_png(&path);
+    // A tight cluster far from the origin.
+    let far = vec![vec![[1e6, -1e6], [1e6 + 1e-4, -1e6]]];
+    let path = out.file("far_cluster.svg");
+    phase_portrait_2d(&path, &far, &[], &labels).unwrap();
+    check_svg(&path);
+    // The origin only, no sphere.
+    let origin = vec![vec![[0.0, 0.0, 0.0]]];
+    let path = out.file("origin_3d.png");
+    trajectories_3d(&path, &origin, None, &labels).unwrap();
+    check_png(&path);
+    // One iteration; one time stamp far from 0.
+    let path = out.file("one_iteration.png");
+    loss_curves(&path, &[("cost", &[3e-7][..])], &labels).unwrap();
+    check_png(&path);
+    let path = out.file("one_time.svg");
+    free_energy_curves(&path, &[(vec![1e9], vec![-2.0])], &labels).unwrap();
+    check_svg(&path);
+}
+
+#[test]
+fn coordinates_too_large_to_lay_out_are_rejected() {
+    let out = OutDir::new("huge");
+    let labels = Labels::default();
+    let path = out.file("huge.png");
+    let huge = vec![vec![[-1e308, 0.0], [1e308, 1.0]]];
+    assert!(matches!(
+        plot_error(phase_portrait_2d(&path, &huge, &[], &labels)),
+        PlotError::InvalidArgument { .. }
+    ));
+    let huge = vec![vec![[0.0, 1e308, 0.0]]];
+    assert!(matches!(
+        plot_error(trajectories_3d(&path, &huge, Some(1.0), &labels)),
+        PlotError::InvalidArgument { .. }
+    ));
+    let huge_times = [(vec![-1e308, 1e308], vec![-1.0, -0.5])];
+    assert!(matches!(
+        plot_error(free_energy_curves(&path, &huge_times, &labels)),
+        PlotError::InvalidArgument { .. }
+    ));
+    assert!(!path.exists());
+}

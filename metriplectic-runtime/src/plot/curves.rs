@@ -17,7 +17,8 @@ use super::{style, Labels, PlotError};
 ///
 /// `series` pairs a name with the value after each iteration, e.g.
 /// `[("metric search", &metric[..]), ("entropy search", &entropy[..])]`;
-/// series may differ in length. Values ≤ 0 (a cost that reached exactly 0)
+/// series may differ in length; series of at most 50 values also get a
+/// marker per value. Values ≤ 0 (a cost that reached exactly 0)
 /// are drawn at a floor one decade below the smallest positive value in the
 /// figure, marked by a dashed line, and a note in the corner says so. Uses
 /// `labels.title`, `.x`, `.y`.
@@ -137,13 +138,13 @@ struct Curves<'a> {
 fn render_curves(path: &Path, lines: Vec<Line<'_>>, labels: &Labels<'_>) -> crate::Result<()> {
     let points = || lines.iter().flat_map(|l| l.points.iter());
     let y = LogAxis::fit("the curves' values", points().map(|p| p.1))?;
-    let (lo, hi) = points().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-        (lo.min(p.0), hi.max(p.0))
-    });
+    let (lo, hi) = data::bounds(points().map(|p| p.0));
+    data::drawable_span("horizontal values", lo, hi)?;
     let x = if hi > lo {
         (lo, hi)
     } else {
-        (lo - 0.5, hi + 0.5)
+        let pad = (1e-6 * lo.abs()).max(0.5);
+        (lo - pad, hi + pad)
     };
     let figure = Curves {
         lines,
@@ -155,6 +156,9 @@ fn render_curves(path: &Path, lines: Vec<Line<'_>>, labels: &Labels<'_>) -> crat
     Ok(())
 }
 
+/// Lines with at most this many points also get a marker at each point.
+const MARKED_UP_TO: usize = 50;
+
 const WIDTH: u32 = 1400;
 const HEIGHT: u32 = 850;
 
@@ -165,6 +169,7 @@ impl Figure for Curves<'_> {
         let mut builder = ChartBuilder::on(root);
         builder
             .margin(20)
+            .margin_top(30)
             .margin_right(40)
             .x_label_area_size(80)
             .y_label_area_size(110);
@@ -172,6 +177,7 @@ impl Figure for Curves<'_> {
             builder.caption(self.labels.title, style::title());
         }
         let (x0, x1) = self.x;
+        let x_ticks = style::numbers(x1 - x0);
         let mut chart =
             builder.build_cartesian_2d(x0..x1, (self.y.low..self.y.high).log_scale())?;
         chart
@@ -180,7 +186,7 @@ impl Figure for Curves<'_> {
             .y_desc(self.labels.y)
             .axis_desc_style(style::axis_name())
             .label_style(style::small())
-            .x_label_formatter(&style::number)
+            .x_label_formatter(&x_ticks)
             .y_label_formatter(&style::power_of_ten)
             .max_light_lines(1)
             .light_line_style(style::GRID.mix(0.5))
@@ -203,6 +209,11 @@ impl Figure for Curves<'_> {
         let mut named = false;
         for line in &self.lines {
             let points = line.points.iter().map(|&(x, v)| (x, self.y.clamp(v)));
+            // Short histories get markers, so a single value is still visible.
+            if line.points.len() <= MARKED_UP_TO {
+                let marker = line.style.filled();
+                chart.draw_series(points.clone().map(|p| Circle::new(p, 4, marker)))?;
+            }
             let series = chart.draw_series(LineSeries::new(points, line.style))?;
             if let Some(name) = line.name {
                 named = true;

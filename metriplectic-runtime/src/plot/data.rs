@@ -84,6 +84,27 @@ pub(crate) fn finite_pairs(what: &str, points: &[(f64, f64)]) -> Result<(), Plot
     }
 }
 
+/// The smallest interval holding `values` (infinite bounds for none).
+pub(crate) fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    })
+}
+
+/// Checks that an axis from `low` to `high` can be laid out: padding and
+/// label positions multiply bounds and spans by small factors, which must not
+/// overflow to infinity (plotters cannot draw infinite ranges).
+pub(crate) fn drawable_span(what: &str, low: f64, high: f64) -> Result<(), PlotError> {
+    if (4.0 * low).is_finite() && (4.0 * high).is_finite() && (4.0 * (high - low)).is_finite() {
+        Ok(())
+    } else {
+        Err(PlotError::InvalidArgument {
+            what: what.to_owned(),
+            reason: format!("values from {low:e} to {high:e} are too large to draw"),
+        })
+    }
+}
+
 /// A logarithmic value axis covering whole decades.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct LogAxis {

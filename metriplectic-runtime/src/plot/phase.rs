@@ -36,11 +36,16 @@ where
 {
     let path = path.as_ref();
     render::check_format(path)?;
-    let trajectories = data::trajectories(trajectories, 2)?
+    let trajectories: Vec<Vec<(f64, f64)>> = data::trajectories(trajectories, 2)?
         .into_iter()
         .map(|t| t.into_iter().map(|x| (x[0], x[1])).collect())
         .collect();
     data::finite_pairs("zero set", zero_set)?;
+    let points = || trajectories.iter().flatten().chain(zero_set.iter());
+    let (x0, x1) = data::bounds(points().map(|p| p.0));
+    let (y0, y1) = data::bounds(points().map(|p| p.1));
+    data::drawable_span("horizontal coordinates", x0, x1)?;
+    data::drawable_span("vertical coordinates", y0, y1)?;
     let figure = PhasePortrait {
         trajectories,
         zero_set,
@@ -66,26 +71,19 @@ impl PhasePortrait<'_> {
     /// A window around all points with 4% padding, shaped like the plotting
     /// area (`width` × `height` pixels) so both axes have the same scale.
     fn window(&self, width: f64, height: f64) -> ((f64, f64), (f64, f64)) {
-        let points = self
-            .trajectories
-            .iter()
-            .flatten()
-            .chain(self.zero_set.iter());
-        let (mut x0, mut x1, mut y0, mut y1) = (
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        );
-        for &(x, y) in points {
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-        }
-        // Data units per pixel: the larger of the two needs, so everything fits.
-        let scale = ((x1 - x0) / width).max((y1 - y0) / height).max(1e-12) * 1.08;
+        let points = || {
+            self.trajectories
+                .iter()
+                .flatten()
+                .chain(self.zero_set.iter())
+        };
+        let (x0, x1) = data::bounds(points().map(|p| p.0));
+        let (y0, y1) = data::bounds(points().map(|p| p.1));
         let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        // Data units per pixel: the larger of the two needs, so everything
+        // fits; a single point still gets a window resolvable in f64.
+        let least = 1e-9 * cx.abs().max(cy.abs()).max(1e-3) / width.max(height);
+        let scale = ((x1 - x0) / width).max((y1 - y0) / height).max(least) * 1.08;
         let (hx, hy) = (0.5 * scale * width, 0.5 * scale * height);
         ((cx - hx, cx + hx), (cy - hy, cy + hy))
     }
@@ -106,6 +104,7 @@ impl Figure for PhasePortrait<'_> {
         let plot_w = w.saturating_sub(LEFT + 2 * MARGIN).max(1);
         let plot_h = h.saturating_sub(BOTTOM + 2 * MARGIN).max(1);
         let ((x0, x1), (y0, y1)) = self.window(f64::from(plot_w), f64::from(plot_h));
+        let (x_ticks, y_ticks) = (style::numbers(x1 - x0), style::numbers(y1 - y0));
         let mut chart = ChartBuilder::on(&area)
             .margin(MARGIN)
             .x_label_area_size(BOTTOM)
@@ -117,8 +116,8 @@ impl Figure for PhasePortrait<'_> {
             .y_desc(self.labels.y)
             .axis_desc_style(style::axis_name())
             .label_style(style::small())
-            .x_label_formatter(&style::number)
-            .y_label_formatter(&style::number)
+            .x_label_formatter(&x_ticks)
+            .y_label_formatter(&y_ticks)
             .max_light_lines(1)
             .light_line_style(style::GRID.mix(0.5))
             .bold_line_style(style::GRID)

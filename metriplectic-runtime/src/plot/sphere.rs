@@ -44,10 +44,12 @@ where
             .into());
         }
     }
-    let trajectories = data::trajectories(trajectories, 3)?
+    let trajectories: Vec<Vec<[f64; 3]>> = data::trajectories(trajectories, 3)?
         .into_iter()
         .map(|t| t.into_iter().map(|x| [x[0], x[1], x[2]]).collect())
         .collect();
+    let largest = data::bounds(trajectories.iter().flatten().flatten().map(|v| v.abs())).1;
+    data::drawable_span("coordinates", -largest, largest)?;
     let figure = Trajectories3d {
         trajectories,
         sphere_radius,
@@ -123,6 +125,7 @@ impl Figure for Trajectories3d<'_> {
             builder.caption(self.labels.title, style::title());
         }
         let mut chart = builder.build_cartesian_3d(-h..h, -h..h, -h..h)?;
+        let ticks = style::numbers(2.0 * h);
         chart.with_projection(|mut pb| {
             pb.yaw = 0.65;
             pb.pitch = 0.35;
@@ -135,9 +138,9 @@ impl Figure for Trajectories3d<'_> {
             .light_grid_style(style::GRID.mix(0.5))
             .bold_grid_style(style::GRID)
             .max_light_lines(1)
-            .x_formatter(&style::number)
-            .y_formatter(&style::number)
-            .z_formatter(&style::number)
+            .x_formatter(&ticks)
+            .y_formatter(&ticks)
+            .z_formatter(&ticks)
             .draw()?;
 
         // Axis names beside the middle of the edges that carry the tick

@@ -43,15 +43,28 @@ pub(crate) const LEGEND_AREA: u32 = 48;
 /// Length of a legend's sample line (shorter than [`LEGEND_AREA`] so it clears the text).
 pub(crate) const LEGEND_LINE: i32 = 36;
 
-/// A tick label without trailing zeros: `1`, `0.5`, `-1.5`, `250`.
-pub(crate) fn number(v: &f64) -> String {
-    let v = if v.abs() < 1e-12 { 0.0 } else { *v };
-    let text = format!("{v:.4}");
-    let text = text.trim_end_matches('0').trim_end_matches('.');
-    if text == "-0" {
-        "0".to_owned()
+/// Tick labels without trailing zeros (`1`, `0.5`, `-1.5`, `250`) for an axis
+/// spanning `span`, with enough decimals to tell ticks apart (plotters places
+/// at most about 20 ticks per axis, at multiples of 1, 2 or 5 × 10ᵏ).
+pub(crate) fn numbers(span: f64) -> impl Fn(&f64) -> String {
+    let step = (span / 20.0).abs();
+    let decimals = if step > 0.0 && step.is_finite() {
+        (-step.log10().floor()).clamp(0.0, 15.0) as usize
     } else {
-        text.to_owned()
+        4
+    };
+    move |v: &f64| {
+        let text = format!("{v:.decimals$}");
+        let text = if text.contains('.') {
+            text.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            &text
+        };
+        if text == "-0" {
+            "0".to_owned()
+        } else {
+            text.to_owned()
+        }
     }
 }
 
@@ -88,11 +101,16 @@ mod tests {
 
     #[test]
     fn tick_labels_are_tidy() {
-        assert_eq!(number(&1.0), "1");
-        assert_eq!(number(&-1.5), "-1.5");
-        assert_eq!(number(&250.0), "250");
-        assert_eq!(number(&-1e-17), "0");
-        assert_eq!(number(&0.125), "0.125");
+        let unit = numbers(3.5);
+        assert_eq!(unit(&1.0), "1");
+        assert_eq!(unit(&-1.5), "-1.5");
+        assert_eq!(unit(&-1e-17), "0");
+        let iterations = numbers(700.0);
+        assert_eq!(iterations(&250.0), "250");
+        assert_eq!(iterations(&100.0), "100");
+        let fine = numbers(1e-3);
+        assert_eq!(fine(&1e6), "1000000");
+        assert_eq!(fine(&(1e6 + 5e-5)), "1000000.00005");
         assert_eq!(power_of_ten(&1.0), "10⁰");
         assert_eq!(power_of_ten(&(1.0 - 1e-15)), "10⁰");
         assert_eq!(power_of_ten(&1e-14), "10⁻¹⁴");
