@@ -1,0 +1,13 @@
+use metriplectic_runtime::metriplectic;
+
+metriplectic! {
+    pub struct Oscillator;
+    state (q, p);
+    const k = 2 * q;
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * p^2 + 0.5 * k;
+    entropy degree 4;
+    metric degree 2;
+}
+
+fn main() {}

@@ -1,0 +1,11 @@
+use metriplectic_runtime::metriplectic;
+
+metriplectic! {
+    pub struct Oscillator;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    entropy degree 4;
+    metric degree 2;
+}
+
+fn main() {}

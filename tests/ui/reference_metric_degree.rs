@@ -1,0 +1,16 @@
+use metriplectic_runtime::metriplectic;
+
+metriplectic! {
+    pub struct Oscillator;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+    entropy degree 4;
+    metric degree 2;
+    reference {
+        entropy = -q^2;
+        metric = [[1 + q^4, 0], [0, 1]];
+    }
+}
+
+fn main() {}
