@@ -60,6 +60,7 @@ pub mod error;
 pub mod identify;
 pub mod metric_search;
 pub mod model;
+mod model_io;
 #[cfg(feature = "plot")]
 pub mod plot;
 pub mod simulate;

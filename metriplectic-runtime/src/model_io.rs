@@ -1,0 +1,225 @@
+//! Saving and loading a [`Model`] as JSON.
+//!
+//! The file records which system and bases the coefficients belong to (name,
+//! state names, degrees, exponent tables), so loading into another system —
+//! or into the same name with different bases — fails with
+//! [`Error::WrongSystem`] instead of silently misreading the coefficients.
+
+use std::fs::OpenOptions;
+use std::io::Write;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::system::MetriplecticSystem;
+
+/// Format tag written into every model file.
+const FORMAT: &str = "metriplectic-model";
+/// Version of the file layout.
+const VERSION: u32 = 1;
+
+/// The on-disk form of a model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct ModelFile {
+    format: String,
+    version: u32,
+    system: String,
+    state_names: Vec<String>,
+    entropy_degree: u32,
+    metric_degree: u32,
+    entropy_exponents: Vec<Vec<u32>>,
+    metric_exponents: Vec<Vec<u32>>,
+    entropy: Vec<f64>,
+    metric: Vec<f64>,
+}
+
+impl ModelFile {
+    fn describe(&self) -> String {
+        describe(
+            &self.system,
+            &self.state_names,
+            self.entropy_degree,
+            self.metric_degree,
+        )
+    }
+
+    fn header_of<S: MetriplecticSystem>() -> Self {
+        Self {
+            format: FORMAT.to_owned(),
+            version: VERSION,
+            system: S::NAME.to_owned(),
+            state_names: S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect(),
+            entropy_degree: S::ENTROPY_DEGREE,
+            metric_degree: S::METRIC_DEGREE,
+            entropy_exponents: to_owned_table(S::ENTROPY_EXPONENTS),
+            metric_exponents: to_owned_table(S::METRIC_EXPONENTS),
+            entropy: Vec::new(),
+            metric: Vec::new(),
+        }
+    }
+}
+
+fn to_owned_table(table: &[&[u32]]) -> Vec<Vec<u32>> {
+    table.iter().map(|e| e.to_vec()).collect()
+}
+
+fn describe<N: AsRef<str>>(name: &str, states: &[N], entropy: u32, metric: u32) -> String {
+    let states: Vec<&str> = states.iter().map(AsRef::as_ref).collect();
+    format!(
+        "system `{name}` (state ({}), entropy degree {entropy}, metric degree {metric})",
+        states.join(", ")
+    )
+}
+
+impl<S: MetriplecticSystem> Model<S> {
+    /// The model as pretty-printed JSON, with its system and bases.
+    pub fn to_json(&self) -> Result<String> {
+        let file = ModelFile {
+            entropy: self.entropy_coefficients().to_vec(),
+            metric: self.metric_coefficients().to_vec(),
+            ..ModelFile::header_of::<S>()
+        };
+        serde_json::to_string_pretty(&file).map_err(|source| Error::Json {
+            context: Some(format!("model of system `{}`", S::NAME)),
+            source,
+        })
+    }
+
+    /// Parses a model written by [`Model::to_json`].
+    ///
+    /// Fails with [`Error::WrongSystem`] if the JSON belongs to another
+    /// system or to other bases, and with the usual length/finiteness errors
+    /// if the coefficients are malformed.
+    pub fn from_json(json: &str) -> Result<Self> {
+        let file: ModelFile = serde_json::from_str(json).map_err(|source| Error::Json {
+            context: Some("model file".to_owned()),
+            source,
+        })?;
+        if file.format != FORMAT || file.version != VERSION {
+            return Err(Error::InvalidArgument {
+                what: "model file".to_owned(),
+                reason: format!(
+                    "format `{}` version {} is not `{FORMAT}` version {VERSION}",
+                    file.format, file.version
+                ),
+            });
+        }
+        let expected = ModelFile::header_of::<S>();
+        let found_header = ModelFile {
+            entropy: Vec::new(),
+            metric: Vec::new(),
+            ..file.clone()
+        };
+        if found_header != expected {
+            let mut found = file.describe();
+            if file.system == expected.system
+                && file.state_names == expected.state_names
+                && file.entropy_degree == expected.entropy_degree
+                && file.metric_degree == expected.metric_degree
+            {
+                found.push_str(" with different monomial tables");
+            }
+            return Err(Error::WrongSystem {
+                expected: expected.describe(),
+                found,
+            });
+        }
+        Self::new(file.entropy, file.metric)
+    }
+
+    /// Writes the model to `path` as JSON. An existing file is replaced only
+    /// if `overwrite` is `true`; otherwise the result is [`Error::FileExists`].
+    pub fn save(&self, path: impl AsRef<Path>, overwrite: bool) -> Result<()> {
+        let path = path.as_ref();
+        let json = self.to_json()?;
+        let mut options = OpenOptions::new();
+        options.write(true);
+        if overwrite {
+            options.create(true).truncate(true);
+        } else {
+            // Atomic with respect to the existence check.
+            options.create_new(true);
+        }
+        let io = |source| Error::Io {
+            path: path.to_owned(),
+            source,
+        };
+        let mut file = options.open(path).map_err(|source: std::io::Error| {
+            if source.kind() == std::io::ErrorKind::AlreadyExists {
+                Error::FileExists {
+                    path: path.to_owned(),
+                }
+            } else {
+                io(source)
+            }
+        })?;
+        file.write_all(json.as_bytes()).map_err(io)?;
+        file.write_all(b"\n").map_err(io)
+    }
+
+    /// Reads a model written by [`Model::save`].
+    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let json = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::from_json(&json).map_err(|e| match e {
+            Error::Json { source, .. } => Error::Json {
+                context: Some(path.display().to_string()),
+                source,
+            },
+            other => other,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::error::Error;
+    use crate::model::Model;
+    use crate::test_system::Quadratic2d;
+
+    #[test]
+    fn json_round_trip_is_exact() {
+        let model = Model::<Quadratic2d>::reference().unwrap();
+        let json = model.to_json().unwrap();
+        assert!(json.contains("\"Quadratic2d\""));
+        assert_eq!(Model::<Quadratic2d>::from_json(&json).unwrap(), model);
+    }
+
+    #[test]
+    fn changed_bases_are_rejected_by_name() {
+        let json = Model::<Quadratic2d>::reference()
+            .unwrap()
+            .to_json()
+            .unwrap();
+        let edited = json.replacen("\"metric_degree\": 2", "\"metric_degree\": 4", 1);
+        assert_ne!(edited, json);
+        let err = Model::<Quadratic2d>::from_json(&edited).unwrap_err();
+        assert!(matches!(err, Error::WrongSystem { .. }), "{err}");
+        let message = err.to_string();
+        assert!(message.contains("metric degree 4") && message.contains("metric degree 2"));
+    }
+
+    #[test]
+    fn save_refuses_to_overwrite_unless_asked() {
+        let dir =
+            std::env::temp_dir().join(format!("metriplectic-model-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("model.json");
+        let _ = std::fs::remove_file(&path);
+        let model = Model::<Quadratic2d>::reference().unwrap();
+        model.save(&path, false).unwrap();
+        assert!(matches!(
+            model.save(&path, false),
+            Err(Error::FileExists { .. })
+        ));
+        let other = Model::<Quadratic2d>::with_identity_metric(vec![1.0; 5]).unwrap();
+        other.save(&path, true).unwrap();
+        assert_eq!(Model::<Quadratic2d>::load(&path).unwrap(), other);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
