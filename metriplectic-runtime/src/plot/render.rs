@@ -112,6 +112,9 @@ fn write_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<(), Plo
         let mut encoder = png::Encoder::new(&mut out, width, height);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
+        // Figures are written once and kept: spend a little time on size.
+        encoder.set_compression(png::Compression::Best);
+        encoder.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
         let mut writer = encoder.write_header().map_err(encoding)?;
         writer.write_image_data(rgb).map_err(encoding)?;
         writer.finish().map_err(encoding)?;
