@@ -411,7 +411,7 @@ pub(crate) fn assemble(
     colptr.push(0);
 
     // Coefficient columns: the dense regression block, then group entries.
-    for c in 0..width {
+    for (c, group_column) in by_column[..width].iter().enumerate() {
         for i in 0..r {
             let a = regression.rows[i * width + c];
             if a != 0.0 {
@@ -428,7 +428,7 @@ pub(crate) fn assemble(
                 }
             }
         }
-        push_group_column(&by_column[c], &mut rowval, &mut nzval);
+        push_group_column(group_column, &mut rowval, &mut nzval);
         colptr.push(rowval.len());
     }
     for column in &by_column[width..] {
@@ -450,8 +450,10 @@ pub(crate) fn assemble(
                 nzval.extend([-1.0, -1.0]);
                 colptr.push(rowval.len());
                 q[head_vars + i] = weight;
-                b[i] = regression.target[i];
-                b[r + i] = -regression.target[i];
+            }
+            for (i, t) in regression.target.iter().enumerate() {
+                b[i] = *t;
+                b[r + i] = -t;
             }
             cones.push(SupportedConeT::NonnegativeConeT(2 * r));
         }
@@ -460,8 +462,8 @@ pub(crate) fn assemble(
                 rowval.extend([i, r + i, 2 * r + i]);
                 nzval.extend([1.0, 1.0, -1.0]);
                 colptr.push(rowval.len());
-                b[i] = regression.target[i];
             }
+            b[..r].copy_from_slice(&regression.target);
             for i in 0..r {
                 rowval.extend([r + i, 2 * r + i]);
                 nzval.extend([-1.0, -1.0]);
@@ -477,8 +479,8 @@ pub(crate) fn assemble(
                 nzval.extend([1.0, -1.0]);
                 colptr.push(rowval.len());
                 q[head_vars + i] = weight;
-                b[i] = regression.target[i];
             }
+            b[..r].copy_from_slice(&regression.target);
             for i in 0..r {
                 rowval.extend([i, 2 * r + i]);
                 nzval.extend([-1.0, -1.0]);
@@ -569,8 +571,8 @@ mod tests {
 
     fn dense(a: &CscMatrix<f64>) -> Vec<Vec<f64>> {
         let mut out = vec![vec![0.0; a.n]; a.m];
-        for col in 0..a.n {
-            for idx in a.colptr[col]..a.colptr[col + 1] {
+        for (col, bounds) in a.colptr.windows(2).enumerate() {
+            for idx in bounds[0]..bounds[1] {
                 out[a.rowval[idx]][col] += a.nzval[idx];
             }
         }

@@ -139,10 +139,10 @@ impl MetriplecticSystem for Quadratic2d {
         Self::metric_features(x, &mut features);
         block.iter_mut().for_each(|b| *b = 0.0);
         for j in 0..n {
-            for k in 0..n {
+            for (k, g) in gradient.iter().enumerate() {
                 let pair = metric_pair_index(n, j, k);
-                for a in 0..basis {
-                    block[j * width + pair * basis + a] += features[a] * gradient[k];
+                for (a, f) in features.iter().enumerate().take(basis) {
+                    block[j * width + pair * basis + a] += f * g;
                 }
             }
         }

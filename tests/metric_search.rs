@@ -1,0 +1,137 @@
+//! Metric search alone (entropy fixed to the truth) recovers K = I for both
+//! paper systems; the returned K(x) is PSD and equals Z(x)ᵀ Q₁ Z(x).
+
+mod common;
+
+use common::paper_systems::*;
+use metriplectic_runtime::model::identity_metric;
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{
+    metric_search, MetricSearch, MetricSearchOptions, SolveStatus, SosBasis,
+};
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn monomial(x: &[f64], exponents: &[u32]) -> f64 {
+    x.iter()
+        .zip(exponents)
+        .map(|(v, &e)| v.powi(e as i32))
+        .product()
+}
+
+/// Z(x) = I_n ⊗ m(x) as an (n·|m|) × n matrix.
+fn sos_basis_matrix(n: usize, exponents: &[&[u32]], x: &[f64]) -> DMatrix<f64> {
+    let m = exponents.len();
+    let mut z = DMatrix::zeros(n * m, n);
+    for j in 0..n {
+        for (b, e) in exponents.iter().enumerate() {
+            z[(j * m + b, j)] = monomial(x, e);
+        }
+    }
+    z
+}
+
+/// Checks PSD-ness and the SOS identity at random points; returns the
+/// smallest eigenvalue of K(x) seen.
+fn check_certificate<S: MetriplecticSystem>(fit: &MetricSearch, eta: f64, seed: u64) -> f64 {
+    let n = S::DIM;
+    let model = Model::<S>::new(
+        S::REFERENCE_ENTROPY.unwrap().to_vec(),
+        fit.coefficients.clone(),
+    )
+    .unwrap();
+    let q1 = DMatrix::from_row_slice(fit.gram_size, fit.gram_size, &fit.gram);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut min_eigen = f64::INFINITY;
+    let mut k = vec![0.0; n * n];
+    for _ in 0..100 {
+        let x: Vec<f64> = (0..n).map(|_| rng.random_range(-3.0..3.0)).collect();
+        model.metric(&x, &mut k).unwrap();
+        let k_mat = DMatrix::from_row_slice(n, n, &k);
+        let z = sos_basis_matrix(n, fit.sos_exponents, &x);
+        let sos = z.transpose() * &q1 * &z;
+        let gap = (&k_mat - &sos).abs().max();
+        assert!(
+            gap <= 1e-12 * (1.0 + k_mat.abs().max()),
+            "K(x) ≠ ZᵀQ₁Z by {gap:e} at {x:?}"
+        );
+        let eigen = k_mat.symmetric_eigen().eigenvalues;
+        min_eigen = min_eigen.min(eigen.min());
+        assert!(
+            eigen.max() <= eta * (1.0 + 1e-7),
+            "K(x) exceeds ηI at {x:?}: {eigen}"
+        );
+    }
+    min_eigen
+}
+
+fn recovers_identity<S: MetriplecticSystem>(data: &Dataset) {
+    let options = MetricSearchOptions::default();
+    let fit = metric_search::<S>(data, S::REFERENCE_ENTROPY.unwrap(), &options).unwrap();
+    let error = max_abs_difference(&fit.coefficients, &identity_metric::<S>(1.0));
+    let cost = fit.report.cost.unwrap();
+    let min_eigen = check_certificate::<S>(&fit, options.eta, 5);
+    eprintln!(
+        "{}: status {}, {} IPM iterations, assembly {:.3}s, solver {:.3}s, \
+         max |θ − θ_true| = {error:.2e}, mean |residual| = {:.2e}, min eig K(x) = {min_eigen:.3e}",
+        S::NAME,
+        fit.report.status,
+        fit.report.iterations,
+        fit.report.assembly_seconds,
+        fit.report.solver_seconds,
+        cost.per_component
+    );
+    assert_eq!(fit.report.status, SolveStatus::Solved);
+    assert!(error <= 1e-6, "max θ error {error:.3e}");
+    assert!(min_eigen >= -1e-12, "K(x) not PSD: {min_eigen:e}");
+}
+
+#[test]
+fn linear2d_metric_is_recovered_with_the_true_entropy() {
+    recovers_identity::<Linear2d>(&linear2d_data(300, 3));
+}
+
+#[test]
+fn rigid_body_metric_is_recovered_with_the_true_entropy() {
+    recovers_identity::<RigidBody>(&rigid_body_data(300, 4));
+}
+
+/// The full (not facially reduced) tables describe a program with no
+/// strictly feasible point (DESIGN.md §2). Record what Clarabel does with it
+/// and check that whatever it returns is still a valid certificate.
+fn full_tables<S: MetriplecticSystem>(data: &Dataset) {
+    let options = MetricSearchOptions {
+        sos: SosBasis::Full,
+        ..MetricSearchOptions::default()
+    };
+    let fit = metric_search::<S>(data, S::REFERENCE_ENTROPY.unwrap(), &options).unwrap();
+    let error = max_abs_difference(&fit.coefficients, &identity_metric::<S>(1.0));
+    let min_eigen = check_certificate::<S>(&fit, options.eta, 6);
+    eprintln!(
+        "{} full SOS tables (Gram {}×{}): status {}, {} IPM iterations, solver {:.3}s, \
+         max |θ − θ_true| = {error:.2e}, min eig K(x) = {min_eigen:.3e}",
+        S::NAME,
+        fit.gram_size,
+        fit.gram_size,
+        fit.report.status,
+        fit.report.iterations,
+        fit.report.solver_seconds
+    );
+    assert!(
+        fit.report.status.is_usable(),
+        "status {}",
+        fit.report.status
+    );
+    assert!(error <= 1e-4, "max θ error {error:.3e}");
+}
+
+#[test]
+fn linear2d_full_sos_tables_reach_the_same_metric() {
+    full_tables::<Linear2d>(&linear2d_data(300, 3));
+}
+
+#[test]
+fn rigid_body_full_sos_tables_reach_the_same_metric() {
+    full_tables::<RigidBody>(&rigid_body_data(300, 4));
+}
