@@ -9,8 +9,8 @@ use std::path::PathBuf;
 
 use common::paper_systems::{Linear2d, RigidBody};
 use metriplectic_runtime::csv_io::{
-    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
-    CsvError, WriteMode,
+    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to, CsvError,
+    WriteMode,
 };
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::synthesize::{
@@ -44,7 +44,13 @@ fn scratch(name: &str) -> PathBuf {
 
 fn awkward_trajectory(id: &str, with_derivatives: bool) -> Trajectory {
     // Values whose decimal forms are long or extreme: the round trip must keep every bit.
-    let times = vec![0.0, 0.1 + 0.2, 1.0 / 3.0, 1.0 + f64::EPSILON, 12345.678901234567];
+    let times = vec![
+        0.0,
+        0.1 + 0.2,
+        1.0 / 3.0,
+        1.0 + f64::EPSILON,
+        12345.678901234567,
+    ];
     let states = vec![
         0.1,
         -0.0,
@@ -141,7 +147,10 @@ fn columns_in_any_order_with_spaces_and_ids() {
 fn header_errors_name_the_columns() {
     let (e, msg) = csv_error("");
     assert!(matches!(e, CsvError::NoHeader { .. }));
-    assert!(msg.contains("empty input") && msg.contains("`t`, `q`, `p`"), "{msg}");
+    assert!(
+        msg.contains("empty input") && msg.contains("`t`, `q`, `p`"),
+        "{msg}"
+    );
 
     let (e, msg) = csv_error("t,q\n0,1\n");
     assert_eq!(
@@ -161,7 +170,10 @@ fn header_errors_name_the_columns() {
 
     let (e, msg) = csv_error("t,q,p,x,speed\n0,1,2,3,4\n");
     assert!(matches!(&e, CsvError::UnknownColumns { unknown, .. } if unknown == &["x", "speed"]));
-    assert!(msg.contains("unknown column(s) `x`, `speed`; expected columns:"), "{msg}");
+    assert!(
+        msg.contains("unknown column(s) `x`, `speed`; expected columns:"),
+        "{msg}"
+    );
 
     let (e, msg) = csv_error("t,q,p,q\n0,1,2,3\n");
     assert_eq!(
@@ -172,7 +184,10 @@ fn header_errors_name_the_columns() {
             second: 4
         }
     );
-    assert!(msg.contains("column `q` appears twice (columns 2 and 4)"), "{msg}");
+    assert!(
+        msg.contains("column `q` appears twice (columns 2 and 4)"),
+        "{msg}"
+    );
 
     let (e, msg) = csv_error("t,q,p,dq\n0,1,2,3\n");
     assert!(matches!(e, CsvError::PartialDerivatives { .. }));
@@ -216,7 +231,17 @@ fn cell_errors_name_line_and_column() {
 
     for bad in ["NaN", "inf", "-infinity", "1e999"] {
         let (e, msg) = csv_error(&format!("p,q,t\n1,2,0\n{bad},2,1\n"));
-        assert!(matches!(e, CsvError::NonFinite { line: 3, column: 1, .. }), "{bad}: {e:?}");
+        assert!(
+            matches!(
+                e,
+                CsvError::NonFinite {
+                    line: 3,
+                    column: 1,
+                    ..
+                }
+            ),
+            "{bad}: {e:?}"
+        );
         assert_eq!(
             msg,
             format!("line 3, column 1 (`p`): non-finite value `{bad}` (NaN and infinities are not allowed)")
@@ -245,7 +270,10 @@ fn cell_errors_name_line_and_column() {
 
     let (e, msg) = csv_error("trajectory,t,q,p\na,0,1,2\n,1,1,2\n");
     assert_eq!(e, CsvError::EmptyTrajectoryId { line: 3, column: 1 });
-    assert!(msg.contains("line 3, column 1 (`trajectory`): empty trajectory identifier"), "{msg}");
+    assert!(
+        msg.contains("line 3, column 1 (`trajectory`): empty trajectory identifier"),
+        "{msg}"
+    );
 
     let (e, msg) = csv_error("trajectory,t,q,p\na,0,1,2\nb,0,1,2\na,1,1,2\n");
     assert_eq!(
@@ -280,13 +308,20 @@ fn reserved_state_names_and_writer_checks() {
     let a = awkward_trajectory("a", true);
     let b = awkward_trajectory("b", false);
     let err = write_trajectories_to(Vec::new(), &[a, b]).unwrap_err();
-    assert!(err.to_string().contains("all trajectories carry derivatives or none"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("all trajectories carry derivatives or none"),
+        "{err}"
+    );
     assert!(write_trajectories_to(Vec::new(), &[]).is_err());
 
     let missing = std::env::temp_dir().join("metriplectic-no-such-dir/x.csv");
     let err = read_trajectories::<Linear2d>(&missing).unwrap_err();
     assert!(matches!(err, Error::Io { .. }), "{err}");
-    assert!(err.to_string().contains("metriplectic-no-such-dir"), "{err}");
+    assert!(
+        err.to_string().contains("metriplectic-no-such-dir"),
+        "{err}"
+    );
 }
 
 fn synthesis_options(seed: u64) -> SynthesisOptions {
@@ -312,7 +347,11 @@ fn synthesis_is_reproducible_by_seed_and_exact() {
     let b = synthesize(&model, &synthesis_options(11)).unwrap();
     let c = synthesize(&model, &synthesis_options(12)).unwrap();
     assert_eq!(a, b, "same seed, same data");
-    assert_ne!(a.train.states(), c.train.states(), "different seed, different data");
+    assert_ne!(
+        a.train.states(),
+        c.train.states(),
+        "different seed, different data"
+    );
 
     assert_eq!(a.trajectories.len(), 8);
     assert_eq!(a.train_trajectories, 6);
@@ -402,10 +441,16 @@ fn noise_and_outliers_are_as_documented() {
     }
     let derivative_std = std_of(&inliers_noisy, &inliers_clean);
     println!("measured derivative noise σ = {derivative_std:.4} (requested 0.1)");
-    assert!((derivative_std / 0.1 - 1.0).abs() < 0.15, "{derivative_std}");
+    assert!(
+        (derivative_std / 0.1 - 1.0).abs() < 0.15,
+        "{derivative_std}"
+    );
     let outlier_rms =
         (outlier_offsets.iter().map(|v| v * v).sum::<f64>() / outlier_offsets.len() as f64).sqrt();
-    println!("outlier offset rms = {outlier_rms:.2} over {} values (requested 50)", outlier_offsets.len());
+    println!(
+        "outlier offset rms = {outlier_rms:.2} over {} values (requested 50)",
+        outlier_offsets.len()
+    );
     assert!((outlier_rms / 50.0 - 1.0).abs() < 0.35, "{outlier_rms}");
 
     // Held-out samples are noisy but never corrupted.
@@ -417,7 +462,10 @@ fn noise_and_outliers_are_as_documented() {
         .zip(held_clean.derivatives())
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max);
-    assert!(held_max > 0.0 && held_max < 1.0, "held-out derivative deviation {held_max}");
+    assert!(
+        held_max > 0.0 && held_max < 1.0,
+        "held-out derivative deviation {held_max}"
+    );
 }
 
 #[test]
@@ -443,7 +491,10 @@ fn synthesis_rejects_bad_options() {
     );
     check(
         SynthesisOptions {
-            times: SampleTimes::LogUniform { count: 5, first: 10.0 },
+            times: SampleTimes::LogUniform {
+                count: 5,
+                first: 10.0,
+            },
             ..synthesis_options(0)
         },
         "must lie in (0, duration",
@@ -480,8 +531,9 @@ fn simulated_trajectories_round_trip_through_csv() {
     assert_eq!(back, data.trajectories);
     let err = read_trajectories::<RigidBody>(&path).unwrap_err();
     assert!(
-        err.to_string()
-            .contains("unknown column(s) `q`, `p`, `dq`, `dp`; expected columns: `t`, `px`, `py`, `pz`"),
+        err.to_string().contains(
+            "unknown column(s) `q`, `p`, `dq`, `dp`; expected columns: `t`, `px`, `py`, `pz`"
+        ),
         "{err}"
     );
 }

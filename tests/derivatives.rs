@@ -21,7 +21,10 @@ fn uniform(h: f64, end: f64) -> Vec<f64> {
 
 /// A smooth non-uniform grid: t = u + 0.3 sin u on a uniform grid in u.
 fn stretched(h: f64, end: f64) -> Vec<f64> {
-    uniform(h, end).into_iter().map(|u| u + 0.3 * u.sin()).collect()
+    uniform(h, end)
+        .into_iter()
+        .map(|u| u + 0.3 * u.sin())
+        .collect()
 }
 
 fn max_error(t: &[f64], method: DerivativeMethod) -> f64 {
@@ -39,7 +42,11 @@ fn finite_differences_meet_their_truncation_bounds() {
     // fully one-sided ones at the ends: h²/3, h⁴/5, h⁶/7 times max|x⁽ᵖ⁺¹⁾| = 1.
     let h = 0.05;
     let t = uniform(h, 6.0);
-    for (order, bound) in [(2, h.powi(2) / 3.0), (4, h.powi(4) / 5.0), (6, h.powi(6) / 7.0)] {
+    for (order, bound) in [
+        (2, h.powi(2) / 3.0),
+        (4, h.powi(4) / 5.0),
+        (6, h.powi(6) / 7.0),
+    ] {
         let err = max_error(&t, DerivativeMethod::FiniteDifference { order });
         println!("order {order}, h = {h}: max error {err:.3e} (bound {bound:.3e})");
         // 1e-13: rounding of the stencil sums, far below the truncation error.
@@ -87,7 +94,10 @@ fn savitzky_golay_is_accurate_on_clean_data_including_the_ends() {
         assert!(ends < bound, "w={window} d={degree}: {ends}");
         overall.push(ends);
         // Sliding windows keep the end error within a modest factor of the interior.
-        assert!(ends < 50.0 * interior.max(1e-12), "ends {ends} vs interior {interior}");
+        assert!(
+            ends < 50.0 * interior.max(1e-12),
+            "ends {ends} vs interior {interior}"
+        );
     }
     // Bias of a degree-d fit grows like (window span)^d: doubling the span
     // (11 → 21 samples) at d = 4 multiplies the error by about 2⁴ = 16.
@@ -144,7 +154,10 @@ fn savitzky_golay_suppresses_noise_as_predicted() {
     println!(
         "σ = {sigma}, h = {h}: SG rms error {sg_rms:.3e} (predicted {predicted:.3e}), FD2 rms error {fd_rms:.3e}"
     );
-    assert!((sg_rms / predicted - 1.0).abs() < 0.15, "{sg_rms} vs {predicted}");
+    assert!(
+        (sg_rms / predicted - 1.0).abs() < 0.15,
+        "{sg_rms} vs {predicted}"
+    );
     assert!(sg_rms < fd_rms / 5.0, "SG {sg_rms} vs FD {fd_rms}");
     // Absolute bound for this setting: below 1 % of the signal's derivative amplitude.
     assert!(sg_rms < 1e-2, "{sg_rms}");
@@ -169,7 +182,13 @@ fn estimated_derivatives_of_a_simulated_trajectory_match_the_vector_field() {
     for (method, bound) in [
         (DerivativeMethod::FiniteDifference { order: 2 }, 1e-3),
         (DerivativeMethod::FiniteDifference { order: 6 }, 1e-7),
-        (DerivativeMethod::SavitzkyGolay { window: 9, degree: 4 }, 1e-5),
+        (
+            DerivativeMethod::SavitzkyGolay {
+                window: 9,
+                degree: 4,
+            },
+            1e-5,
+        ),
     ] {
         let estimated = estimate_derivatives(&states_only, &method).unwrap();
         let err = estimated

@@ -69,7 +69,10 @@ fn linear_ode_matches_matrix_exponential_at_requested_tolerance() {
                 err / exact.norm().max(1e-3)
             })
             .fold(0.0, f64::max);
-        println!("rtol {rtol:e}: worst relative global error {worst:.3e}, {:?}", sol.stats);
+        println!(
+            "rtol {rtol:e}: worst relative global error {worst:.3e}, {:?}",
+            sol.stats
+        );
         // Global error of an error-per-step controller: a small multiple of rtol.
         assert!(worst < 20.0 * rtol, "rtol {rtol}: error {worst}");
         assert!(worst < previous, "error must fall with the tolerance");
@@ -216,9 +219,14 @@ fn linear2d_reference_converges_to_the_figure_eight() {
         worst_final_distance = worst_final_distance.max(d_end);
         trajectories.push(sim.trajectory);
     }
-    println!("worst final |E| {worst_final_e:.3e}, worst final distance {worst_final_distance:.3e}");
+    println!(
+        "worst final |E| {worst_final_e:.3e}, worst final distance {worst_final_distance:.3e}"
+    );
     assert!(worst_final_e < 1e-12, "final |E| {worst_final_e}");
-    assert!(worst_final_distance < 1e-6, "final distance {worst_final_distance}");
+    assert!(
+        worst_final_distance < 1e-6,
+        "final distance {worst_final_distance}"
+    );
     // The data-side diagnostic agrees: E never falls along the reference flow.
     let report = free_energy_diagnostics(&model, &trajectories, 1e-9).unwrap();
     assert_eq!(report.decreasing_steps, 0, "{report:?}");
@@ -248,9 +256,16 @@ fn rigid_body_reference_converges_to_the_unit_sphere() {
             .collect();
         // p̂∇E = 0: the radial part | |p| − 1 | shrinks monotonically, up to the
         // integration error (rtol 1e-8 on |p| ≤ 1.5).
-        assert!(radial.windows(2).all(|w| w[1] <= w[0] + 1e-7), "| |p| − 1 | grew");
+        assert!(
+            radial.windows(2).all(|w| w[1] <= w[0] + 1e-7),
+            "| |p| − 1 | grew"
+        );
         let end = *radial.last().unwrap();
-        println!("|p0| = {:.3}: ||p| − 1| {:.3e} → {end:.3e}", norm(&x0), radial[0]);
+        println!(
+            "|p0| = {:.3}: ||p| − 1| {:.3e} → {end:.3e}",
+            norm(&x0),
+            radial[0]
+        );
         worst_end = worst_end.max(end);
     }
     assert!(worst_end < 1e-6, "final ||p| − 1| = {worst_end}");
@@ -275,7 +290,8 @@ fn energy_check_flags_a_negative_metric() {
     println!("{:?}", sim.energy);
     assert!(!sim.energy.is_non_decreasing());
     assert!(sim.energy.violations > sim.energy.steps / 2);
-    let report = free_energy_diagnostics(&reference, &[sim.trajectory.clone()], 0.0).unwrap();
+    let report =
+        free_energy_diagnostics(&reference, std::slice::from_ref(&sim.trajectory), 0.0).unwrap();
     // The reference model's E along the anti-dissipative flow falls too.
     assert!(report.fraction_decreasing() > 0.5, "{report:?}");
 }

@@ -49,6 +49,15 @@ pub const DERIVATIVE_PREFIX: &str = "d";
 
 /// Malformed trajectory CSV. Lines are 1-based with the header on line 1;
 /// columns are 1-based.
+///
+/// ```
+/// use metriplectic_runtime::csv_io::{read_trajectories_from, CsvError};
+/// use metriplectic_runtime::Error;
+///
+/// let err = read_trajectories_from("t,x\n0,1\n0.1,oops\n".as_bytes(), &["x"]).unwrap_err();
+/// assert!(matches!(err, Error::Csv(CsvError::NotANumber { line: 3, column: 2, .. })));
+/// assert_eq!(err.to_string(), "line 3, column 2 (`x`): `oops` is not a number");
+/// ```
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CsvError {

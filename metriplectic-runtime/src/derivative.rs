@@ -154,7 +154,10 @@ pub fn differentiate(times: &[f64], values: &[f64], method: &DerivativeMethod) -
 /// let d = traj.derivative(20).unwrap();
 /// assert!((d[0] + (1.0f64).sin()).abs() < 1e-4);
 /// ```
-pub fn estimate_derivatives(trajectory: &Trajectory, method: &DerivativeMethod) -> Result<Trajectory> {
+pub fn estimate_derivatives(
+    trajectory: &Trajectory,
+    method: &DerivativeMethod,
+) -> Result<Trajectory> {
     let times = trajectory.times();
     method.validate(times.len())?;
     let n = trajectory.dim();
@@ -172,7 +175,10 @@ pub fn estimate_derivatives(trajectory: &Trajectory, method: &DerivativeMethod) 
 }
 
 /// Estimated derivatives for several trajectories (see [`estimate_derivatives`]).
-pub fn estimate_all(trajectories: &[Trajectory], method: &DerivativeMethod) -> Result<Vec<Trajectory>> {
+pub fn estimate_all(
+    trajectories: &[Trajectory],
+    method: &DerivativeMethod,
+) -> Result<Vec<Trajectory>> {
     trajectories
         .iter()
         .map(|t| estimate_derivatives(t, method))
@@ -233,10 +239,7 @@ fn fornberg_first_derivative(z: f64, points: &[f64]) -> Vec<f64> {
 /// `degree` through the samples at `points`.
 fn least_squares_first_derivative(z: f64, points: &[f64], degree: usize) -> Result<Vec<f64>> {
     // Scale the abscissae to [-1, 1] so the Vandermonde matrix stays well conditioned.
-    let scale = points
-        .iter()
-        .map(|t| (t - z).abs())
-        .fold(0.0, f64::max);
+    let scale = points.iter().map(|t| (t - z).abs()).fold(0.0, f64::max);
     let vandermonde = DMatrix::from_fn(points.len(), degree + 1, |r, c| {
         ((points[r] - z) / scale).powi(c as i32)
     });
@@ -281,10 +284,16 @@ mod tests {
         assert_eq!(w, vec![-0.5, 0.0, 0.5]);
         let w = fornberg_first_derivative(0.0, &[0.0, 1.0, 2.0]);
         let expected = [-1.5, 2.0, -0.5];
-        assert!(w.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-14), "{w:?}");
+        assert!(
+            w.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-14),
+            "{w:?}"
+        );
         let w = fornberg_first_derivative(0.0, &[-2.0, -1.0, 0.0, 1.0, 2.0]);
         let expected = [1.0 / 12.0, -2.0 / 3.0, 0.0, 2.0 / 3.0, -1.0 / 12.0];
-        assert!(w.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-14), "{w:?}");
+        assert!(
+            w.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-14),
+            "{w:?}"
+        );
     }
 
     #[test]
@@ -297,15 +306,24 @@ mod tests {
             let dx = differentiate(&t, &x, &method).unwrap();
             for (d, t) in dx.iter().zip(&t) {
                 let exact = order as f64 * t.powi(order as i32 - 1) - 2.0;
-                assert!((d - exact).abs() < 1e-8 * (1.0 + exact.abs()), "order {order}: {d} vs {exact}");
+                assert!(
+                    (d - exact).abs() < 1e-8 * (1.0 + exact.abs()),
+                    "order {order}: {d} vs {exact}"
+                );
             }
         }
         let x: Vec<f64> = t.iter().map(|t| 1.0 + t - t.powi(3)).collect();
-        let method = DerivativeMethod::SavitzkyGolay { window: 7, degree: 3 };
+        let method = DerivativeMethod::SavitzkyGolay {
+            window: 7,
+            degree: 3,
+        };
         let dx = differentiate(&t, &x, &method).unwrap();
         for (d, t) in dx.iter().zip(&t) {
             let exact = 1.0 - 3.0 * t * t;
-            assert!((d - exact).abs() < 1e-9 * (1.0 + exact.abs()), "{d} vs {exact}");
+            assert!(
+                (d - exact).abs() < 1e-9 * (1.0 + exact.abs()),
+                "{d} vs {exact}"
+            );
         }
     }
 
@@ -314,13 +332,34 @@ mod tests {
         let t = [0.0, 1.0, 2.0, 3.0];
         let x = [0.0; 4];
         let msg = |m: DerivativeMethod| differentiate(&t, &x, &m).unwrap_err().to_string();
-        assert!(msg(DerivativeMethod::FiniteDifference { order: 3 }).contains("supported orders are 2, 4 and 6"));
+        assert!(msg(DerivativeMethod::FiniteDifference { order: 3 })
+            .contains("supported orders are 2, 4 and 6"));
         assert!(msg(DerivativeMethod::FiniteDifference { order: 4 }).contains("at least 5 samples"));
-        assert!(msg(DerivativeMethod::SavitzkyGolay { window: 4, degree: 2 }).contains("must be odd"));
-        assert!(msg(DerivativeMethod::SavitzkyGolay { window: 3, degree: 3 }).contains("cannot determine"));
-        assert!(msg(DerivativeMethod::SavitzkyGolay { window: 5, degree: 2 }).contains("only 4"));
-        assert!(msg(DerivativeMethod::SavitzkyGolay { window: 3, degree: 0 }).contains("degree ≥ 1"));
-        let err = differentiate(&[0.0, 0.0, 1.0], &[0.0; 3], &DerivativeMethod::FiniteDifference { order: 2 });
+        assert!(msg(DerivativeMethod::SavitzkyGolay {
+            window: 4,
+            degree: 2
+        })
+        .contains("must be odd"));
+        assert!(msg(DerivativeMethod::SavitzkyGolay {
+            window: 3,
+            degree: 3
+        })
+        .contains("cannot determine"));
+        assert!(msg(DerivativeMethod::SavitzkyGolay {
+            window: 5,
+            degree: 2
+        })
+        .contains("only 4"));
+        assert!(msg(DerivativeMethod::SavitzkyGolay {
+            window: 3,
+            degree: 0
+        })
+        .contains("degree ≥ 1"));
+        let err = differentiate(
+            &[0.0, 0.0, 1.0],
+            &[0.0; 3],
+            &DerivativeMethod::FiniteDifference { order: 2 },
+        );
         assert!(err.unwrap_err().to_string().contains("strictly increase"));
     }
 }

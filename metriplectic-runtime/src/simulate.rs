@@ -37,6 +37,17 @@ use crate::system::MetriplecticSystem;
 use crate::trajectory::Trajectory;
 
 /// Why an integration stopped early.
+///
+/// ```
+/// use metriplectic_runtime::simulate::{integrate, IntegratorOptions, OutputTimes, SimulationError};
+/// use metriplectic_runtime::Error;
+///
+/// // ẋ = x² from 1 blows up at t = 1.
+/// let err = integrate(|_t, x, dx| dx[0] = x[0] * x[0], &[1.0], 0.0, 2.0,
+///                     &IntegratorOptions::default(), &OutputTimes::Steps).unwrap_err();
+/// assert!(matches!(err, Error::Simulation(SimulationError::StepSizeUnderflow { .. }
+///                                        | SimulationError::NonFinite { .. })));
+/// ```
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SimulationError {
@@ -154,6 +165,15 @@ impl Default for SimulationOptions {
 }
 
 /// Work done by the integrator.
+///
+/// ```
+/// use metriplectic_runtime::simulate::{integrate, IntegratorOptions, OutputTimes};
+///
+/// let sol = integrate(|_t, x, dx| dx[0] = -x[0], &[1.0], 0.0, 1.0,
+///                     &IntegratorOptions::default(), &OutputTimes::Steps).unwrap();
+/// // DOPRI5 is FSAL: 6 evaluations per step plus the start-up ones.
+/// assert!(sol.stats.evaluations >= 6 * sol.stats.accepted_steps);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct IntegrationStats {
     /// Vector field evaluations.
@@ -184,7 +204,16 @@ pub struct Solution {
     pub stats: IntegrationStats,
 }
 
-/// Result of the free-energy monotonicity check of one simulated trajectory.
+/// Result of the free-energy monotonicity check of one simulated trajectory
+/// (see the [module documentation](self) for the tolerance).
+///
+/// ```
+/// use metriplectic_runtime::simulate::EnergyCheck;
+///
+/// let check = EnergyCheck { steps: 10, violations: 0, largest_decrease: 0.0,
+///                           largest_decrease_ratio: 0.0, worst_step: None };
+/// assert!(check.is_non_decreasing());
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnergyCheck {
     /// Number of consecutive output pairs checked.

@@ -245,6 +245,29 @@ impl SynthesisOptions {
 }
 
 /// Synthetic data and how it was made.
+///
+/// ```
+/// # use metriplectic_runtime::prelude::*;
+/// # use metriplectic_runtime::synthesize::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
+/// # metriplectic! {
+/// #     pub struct Decay;
+/// #     state (x, y);
+/// #     poisson = [[0, 1], [-1, 0]];
+/// #     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
+/// #     entropy degree 2;
+/// #     metric degree 0;
+/// #     reference { entropy = -(x^2 + y^2); metric = [[1, 0], [0, 1]]; }
+/// # }
+/// let model = Model::<Decay>::reference().unwrap();
+/// let options = SynthesisOptions {
+///     trajectories: 4,
+///     held_out_trajectories: 1,
+///     ..SynthesisOptions::new(InitialStates::cube(2, 1.0), SampleTimes::Uniform { interval: 0.1 })
+/// };
+/// let data = synthesize(&model, &options).unwrap();
+/// assert_eq!(data.train.len(), 3 * 11);
+/// assert_eq!(data.held_out.unwrap().len(), 11);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SyntheticData {
     /// Training samples (noisy and corrupted as requested), trajectory by
@@ -279,8 +302,8 @@ pub fn synthesize<S: MetriplecticSystem>(
             output: OutputTimes::Times(times),
             ..SimulationOptions::default()
         };
-        let simulation = simulate(model, &x0, 0.0, options.duration, &simulation_options)
-            .map_err(|error| {
+        let simulation =
+            simulate(model, &x0, 0.0, options.duration, &simulation_options).map_err(|error| {
                 invalid(
                     &format!("synthetic trajectory {k} from initial state {x0:?}"),
                     error.to_string(),
@@ -345,7 +368,11 @@ fn sample_times(times: &SampleTimes, duration: f64, rng: &mut ChaCha8Rng) -> Vec
         SampleTimes::LogUniform { count, first } => {
             let (lo, hi) = (first.ln(), duration.ln());
             let mut t: Vec<f64> = (0..count)
-                .map(|_| (lo + (hi - lo) * rng.random::<f64>()).exp().clamp(first, duration))
+                .map(|_| {
+                    (lo + (hi - lo) * rng.random::<f64>())
+                        .exp()
+                        .clamp(first, duration)
+                })
                 .collect();
             t.sort_by(f64::total_cmp);
             // Ties have probability ~0 but would break strictly increasing output times.
@@ -376,7 +403,10 @@ fn add_noise(data: Dataset, noise: &Noise, rng: &mut ChaCha8Rng) -> Result<Datas
 
 fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
     if options.trajectories == 0 {
-        return Err(invalid("number of trajectories", "must be at least 1".to_owned()));
+        return Err(invalid(
+            "number of trajectories",
+            "must be at least 1".to_owned(),
+        ));
     }
     if options.held_out_trajectories >= options.trajectories {
         return Err(invalid(
@@ -411,7 +441,10 @@ fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
         }
         SampleTimes::LogUniform { count, first } => {
             if count == 0 {
-                return Err(invalid("log-uniform sample count", "must be at least 1".to_owned()));
+                return Err(invalid(
+                    "log-uniform sample count",
+                    "must be at least 1".to_owned(),
+                ));
             }
             if !(first.is_finite() && first > 0.0 && first < options.duration) {
                 return Err(invalid(
