@@ -1,6 +1,12 @@
 //! Paper reproductions and end-to-end tests for the `metriplectic` toolkit.
 //!
-//! This package holds no library code of its own: the toolkit is
-//! [`metriplectic_runtime`] (which re-exports the `metriplectic!` macro). The
-//! examples live in `examples/` and the cross-crate tests in `tests/`.
+//! The toolkit itself is [`metriplectic_runtime`] (which re-exports the
+//! `metriplectic!` macro). This package holds what the paper reproductions in
+//! `examples/` share — [`reproduction`] (data, identification, evaluation,
+//! outputs) and [`figures`] — so that the examples and the end-to-end tests in
+//! `tests/` run the same code.
+
+pub mod figures;
+pub mod reproduction;
+
 pub use metriplectic_runtime;

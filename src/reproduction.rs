@@ -1,0 +1,534 @@
+//! The paper reproductions' shared pipeline: synthesise data from a reference
+//! model, identify S and K with Algorithm 2, evaluate on held-out data,
+//! simulate the identified model and write figures and a summary.
+//!
+//! `examples/linear_2d.rs` and `examples/rigid_body_so3.rs` each declare their
+//! system with `metriplectic!` and describe the experiment as an
+//! [`Experiment`]; everything else happens here, so the examples and the
+//! end-to-end tests in `tests/` run exactly the same code.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::io::IsTerminal;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use metriplectic_runtime::conic::SolveStatus;
+use metriplectic_runtime::identify::{identify_with_observer, IdentifyConfig, StopReason};
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::simulate::{simulate, OutputTimes, Simulation, SimulationOptions};
+use metriplectic_runtime::synthesize::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+/// Command-line options shared by both reproductions.
+#[derive(Debug, Clone, clap::Parser)]
+#[command(about = "Reproduce an experiment of the generalized metriplectic paper")]
+pub struct Options {
+    /// Seed of every random draw (data, initial entropy, minibatches, plots).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Minibatch size q of Algorithm 2 (the paper uses 2000).
+    #[arg(long, default_value_t = 2000)]
+    pub batch_size: usize,
+    /// Iteration cap [default: the paper's count for the experiment].
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Stop when the minibatch's mean absolute residual reaches this.
+    #[arg(long, default_value_t = 1e-9)]
+    pub tolerance: f64,
+    /// Output directory (default: target/paper/<experiment>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Overwrite a non-empty output directory.
+    #[arg(long)]
+    pub force: bool,
+    /// Trajectories simulated for the phase-portrait figure.
+    #[arg(long, default_value_t = 200)]
+    pub plot_trajectories: usize,
+    /// Training trajectories synthesised from the reference model.
+    #[arg(long, default_value_t = 100)]
+    pub train_trajectories: usize,
+    /// Held-out trajectories (never seen by the identifier).
+    #[arg(long, default_value_t = 20)]
+    pub heldout_trajectories: usize,
+    /// Samples per trajectory (log-uniform in time).
+    #[arg(long, default_value_t = 50)]
+    pub samples_per_trajectory: usize,
+    /// No progress bar and no summary on stdout.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// What is true of the reference system's long-time behaviour, drawn in the
+/// trajectory figure.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ZeroSet {
+    /// A closed curve in the plane, as points.
+    Curve(Vec<(f64, f64)>),
+    /// The sphere of this radius around the origin.
+    Sphere(f64),
+}
+
+/// The experiment-specific part of a reproduction.
+#[derive(Debug, Clone)]
+pub struct Experiment {
+    /// Short name, used for the default output directory.
+    pub name: &'static str,
+    /// Distribution of the initial states of the training, held-out and plotted trajectories.
+    pub initial_states: InitialStates,
+    /// Duration of each synthesised trajectory.
+    pub duration: f64,
+    /// Earliest log-uniform sample time.
+    pub first_sample_time: f64,
+    /// Standard deviation of the Gaussian perturbation of the true entropy
+    /// coefficients that gives the initial entropy.
+    pub initial_entropy_std: f64,
+    /// Coefficient bound η.
+    pub eta: f64,
+    /// Default iteration cap: the paper's iteration count.
+    pub iterations: usize,
+    /// Duration of the simulated trajectories in the figures.
+    pub plot_duration: f64,
+    /// The set the reference trajectories converge to.
+    pub zero_set: ZeroSet,
+}
+
+/// `summary.json`: the reproduction's headline numbers.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Summary {
+    /// The system's name.
+    pub system: String,
+    /// The seed of the run.
+    pub seed: u64,
+    /// Training samples.
+    pub samples_train: usize,
+    /// Held-out samples.
+    pub samples_heldout: usize,
+    /// Minibatch size q.
+    pub batch_size: usize,
+    /// Iterations run.
+    pub iterations: usize,
+    /// Metric-search cost (mean absolute residual per component) of the last iteration.
+    pub final_metric_cost: f64,
+    /// Entropy-search cost (mean absolute residual per component) on the last minibatch.
+    pub final_entropy_cost: f64,
+    /// ‖f_fit − f_true‖ / ‖f_true‖ over all held-out states.
+    pub heldout_relative_error: f64,
+    /// Mean |ẋ − f_fit(x)| per component over the held-out samples.
+    pub heldout_mean_abs_residual: f64,
+    /// Fraction of integration steps of the identified model's simulated
+    /// trajectories where E decreased beyond the integrator's tolerance.
+    pub free_energy_decrease_fraction: f64,
+    /// Subproblem solves that did not end with Clarabel's status `Solved`.
+    pub nonoptimal_solves: usize,
+    /// Wall time of the whole run.
+    pub seconds_total: f64,
+    /// Wall time inside Clarabel.
+    pub seconds_solver: f64,
+}
+
+/// Why a reproduction could not run or finish.
+#[derive(Debug, thiserror::Error)]
+pub enum ReproductionError {
+    /// The output directory has files and `--force` was not given.
+    #[error("output directory {0} is not empty; pass --force to overwrite it or --out to choose another")]
+    OutputNotEmpty(PathBuf),
+    /// Reading or writing an output file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The path involved.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The runtime reported an error.
+    #[error(transparent)]
+    Runtime(#[from] metriplectic_runtime::Error),
+    /// Every simulation of the identified model failed.
+    #[error("the identified model could not be simulated from any initial state: {0}")]
+    Simulation(String),
+    /// An option is out of range.
+    #[error("invalid option: {0}")]
+    Option(String),
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReproductionError + '_ {
+    move |source| ReproductionError::Io {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// Runs the reproduction of `experiment` for system `S` and returns its summary.
+pub fn run<S: MetriplecticSystem>(
+    experiment: &Experiment,
+    options: &Options,
+) -> Result<Summary, ReproductionError> {
+    let started = Instant::now();
+    let out = options
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("target").join("paper").join(experiment.name));
+    prepare_output_dir(&out, options.force)?;
+
+    let iterations = options.iterations.unwrap_or(experiment.iterations);
+    let truth = Model::<S>::reference()?;
+    let data = synthesize_data(&truth, experiment, options)?;
+    let train = &data.train;
+    let held_out = data.held_out.as_ref().ok_or_else(|| {
+        ReproductionError::Option("--heldout-trajectories must be at least 1".into())
+    })?;
+    if options.batch_size > train.len() {
+        return Err(ReproductionError::Option(format!(
+            "--batch-size {} exceeds the {} training samples; raise --train-trajectories or --samples-per-trajectory",
+            options.batch_size,
+            train.len()
+        )));
+    }
+
+    let config = IdentifyConfig {
+        batch_size: Some(options.batch_size),
+        eta: experiment.eta,
+        max_iterations: iterations,
+        tolerance: options.tolerance,
+        seed: options.seed,
+        initial_entropy: Some(perturbed_entropy::<S>(
+            &truth,
+            experiment.initial_entropy_std,
+            options.seed,
+        )?),
+        ..IdentifyConfig::default()
+    };
+    let progress = progress_bar(options, iterations);
+    let identification = identify_with_observer::<S, _>(train, &config, |record, _| {
+        progress.set_position(record.iteration as u64);
+        progress.set_message(format!(
+            "metric {:.3e}  entropy {:.3e}",
+            record.metric.cost_after.per_component, record.entropy.cost_after.per_component
+        ));
+        ControlFlow::Continue(())
+    })?;
+    progress.finish_and_clear();
+    let model = &identification.model;
+    let history = &identification.history;
+
+    let (heldout_relative_error, heldout_mean_abs_residual) =
+        held_out_errors(model, &truth, held_out)?;
+    let (simulations, failed_simulations) = simulate_for_plots(model, experiment, options)?;
+    let steps: usize = simulations.iter().map(|s| s.energy.steps).sum();
+    let violations: usize = simulations.iter().map(|s| s.energy.violations).sum();
+
+    write_outputs(&out, model, history, &simulations, experiment)?;
+
+    let last = history.iterations.last();
+    let nonoptimal_solves = history
+        .iterations
+        .iter()
+        .flat_map(|r| [r.metric.report.status, r.entropy.report.status])
+        .filter(|s| *s != SolveStatus::Solved)
+        .count();
+    let summary = Summary {
+        system: S::NAME.to_owned(),
+        seed: options.seed,
+        samples_train: train.len(),
+        samples_heldout: held_out.len(),
+        batch_size: options.batch_size,
+        iterations: history.iterations.len(),
+        final_metric_cost: last.map_or(f64::NAN, |r| r.metric.cost_after.per_component),
+        final_entropy_cost: last.map_or(f64::NAN, |r| r.entropy.cost_after.per_component),
+        heldout_relative_error,
+        heldout_mean_abs_residual,
+        free_energy_decrease_fraction: if steps == 0 {
+            0.0
+        } else {
+            violations as f64 / steps as f64
+        },
+        nonoptimal_solves,
+        seconds_total: started.elapsed().as_secs_f64(),
+        seconds_solver: history
+            .iterations
+            .iter()
+            .map(|r| r.metric.report.solver_seconds + r.entropy.report.solver_seconds)
+            .sum(),
+    };
+    write_json(&out.join("summary.json"), &summary)?;
+    if !options.quiet {
+        println!(
+            "{}",
+            human_summary(model, &summary, identification.stop_reason, &out)
+        );
+        if !failed_simulations.is_empty() {
+            println!(
+                "warning: {} of {} simulations of the identified model failed and are not plotted; first: {}",
+                failed_simulations.len(),
+                failed_simulations.len() + simulations.len(),
+                failed_simulations[0]
+            );
+        }
+    }
+    Ok(summary)
+}
+
+/// Refuses a non-empty directory unless `force`; creates it otherwise.
+fn prepare_output_dir(out: &Path, force: bool) -> Result<(), ReproductionError> {
+    if let Ok(mut entries) = fs::read_dir(out) {
+        if entries.next().is_some() && !force {
+            return Err(ReproductionError::OutputNotEmpty(out.to_owned()));
+        }
+    }
+    fs::create_dir_all(out).map_err(io_error(out))
+}
+
+fn synthesize_data<S: MetriplecticSystem>(
+    truth: &Model<S>,
+    experiment: &Experiment,
+    options: &Options,
+) -> Result<metriplectic_runtime::synthesize::SyntheticData, ReproductionError> {
+    let synthesis = SynthesisOptions {
+        trajectories: options.train_trajectories + options.heldout_trajectories,
+        held_out_trajectories: options.heldout_trajectories,
+        duration: experiment.duration,
+        seed: options.seed,
+        ..SynthesisOptions::new(
+            experiment.initial_states.clone(),
+            SampleTimes::LogUniform {
+                count: options.samples_per_trajectory,
+                first: experiment.first_sample_time,
+            },
+        )
+    };
+    Ok(synthesize(truth, &synthesis)?)
+}
+
+/// The paper's initial entropy: the true coefficients plus N(0, σ²) noise on each.
+pub fn perturbed_entropy<S: MetriplecticSystem>(
+    truth: &Model<S>,
+    std: f64,
+    seed: u64,
+) -> Result<Vec<f64>, ReproductionError> {
+    let normal = Normal::new(0.0, std)
+        .map_err(|e| ReproductionError::Option(format!("initial entropy noise {std}: {e}")))?;
+    // A stream of its own, so changing the data size does not change the start.
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0f_e7a0);
+    Ok(truth
+        .entropy_coefficients()
+        .iter()
+        .map(|c| c + normal.sample(&mut rng))
+        .collect())
+}
+
+/// (‖f_fit − f_true‖ / ‖f_true‖, mean |ẋ − f_fit|) over the held-out samples.
+pub fn held_out_errors<S: MetriplecticSystem>(
+    model: &Model<S>,
+    truth: &Model<S>,
+    held_out: &Dataset,
+) -> Result<(f64, f64), ReproductionError> {
+    let n = S::DIM;
+    let (mut fit, mut reference) = (vec![0.0; n], vec![0.0; n]);
+    let (mut diff2, mut true2, mut abs_residual) = (0.0, 0.0, 0.0);
+    for (x, measured) in held_out.iter() {
+        model.vector_field(x, &mut fit)?;
+        truth.vector_field(x, &mut reference)?;
+        for j in 0..n {
+            diff2 += (fit[j] - reference[j]).powi(2);
+            true2 += reference[j].powi(2);
+            abs_residual += (measured[j] - fit[j]).abs();
+        }
+    }
+    Ok((
+        (diff2 / true2).sqrt(),
+        abs_residual / (held_out.len() * n) as f64,
+    ))
+}
+
+/// Simulations of the identified model from random initial states, and the
+/// number of trajectories whose integration failed (an inexact model may blow
+/// up; those are reported, not plotted).
+fn simulate_for_plots<S: MetriplecticSystem>(
+    model: &Model<S>,
+    experiment: &Experiment,
+    options: &Options,
+) -> Result<(Vec<Simulation>, Vec<String>), ReproductionError> {
+    let starts = synthesize(
+        model,
+        &SynthesisOptions {
+            trajectories: options.plot_trajectories.max(1),
+            duration: 1e-6,
+            seed: options.seed.wrapping_add(1),
+            ..SynthesisOptions::new(
+                experiment.initial_states.clone(),
+                SampleTimes::Uniform { interval: 1.0 },
+            )
+        },
+    )?;
+    let sim_options = SimulationOptions {
+        output: OutputTimes::Steps,
+        ..SimulationOptions::default()
+    };
+    let mut simulations = Vec::new();
+    let mut failures = Vec::new();
+    for start in &starts.trajectories {
+        let x0 = start.state(0);
+        match simulate(model, x0, 0.0, experiment.plot_duration, &sim_options) {
+            Ok(simulation) => simulations.push(simulation),
+            Err(err) => failures.push(format!("from {x0:?}: {err}")),
+        }
+    }
+    if simulations.is_empty() {
+        return Err(ReproductionError::Simulation(failures.join("; ")));
+    }
+    Ok((simulations, failures))
+}
+
+fn write_outputs<S: MetriplecticSystem>(
+    out: &Path,
+    model: &Model<S>,
+    history: &metriplectic_runtime::identify::History,
+    simulations: &[Simulation],
+    experiment: &Experiment,
+) -> Result<(), ReproductionError> {
+    let path = out.join("history.csv");
+    let file = fs::File::create(&path).map_err(io_error(&path))?;
+    history
+        .write_csv(std::io::BufWriter::new(file))
+        .map_err(io_error(&path))?;
+    model.save(out.join("model.json"), true)?;
+    crate::figures::write_all(out, history, simulations, experiment, S::STATE_NAMES)
+}
+
+fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), ReproductionError> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| {
+        ReproductionError::Runtime(metriplectic_runtime::Error::Json {
+            context: Some(path.display().to_string()),
+            source: e,
+        })
+    })?;
+    fs::write(path, text + "\n").map_err(io_error(path))
+}
+
+fn progress_bar(options: &Options, iterations: usize) -> ProgressBar {
+    let bar = ProgressBar::new(iterations as u64);
+    if options.quiet || !std::io::stderr().is_terminal() {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+/// The polynomial Σ cₖ x^αₖ over `exponents`, terms with |c| below `threshold`
+/// left out, e.g. `-0.5 q^2 + 4 q^2 p^2`.
+pub fn polynomial_to_string(
+    names: &[&str],
+    exponents: &[&[u32]],
+    coefficients: &[f64],
+    threshold: f64,
+) -> String {
+    let mut text = String::new();
+    for (alpha, &c) in exponents.iter().zip(coefficients) {
+        if c.abs() < threshold {
+            continue;
+        }
+        let sign = if c < 0.0 { "-" } else { "+" };
+        if text.is_empty() {
+            if c < 0.0 {
+                text.push('-');
+            }
+        } else {
+            let _ = write!(text, " {sign} ");
+        }
+        let _ = write!(text, "{}", format_coefficient(c.abs()));
+        for (name, &power) in names.iter().zip(alpha.iter()) {
+            match power {
+                0 => {}
+                1 => {
+                    let _ = write!(text, " {name}");
+                }
+                _ => {
+                    let _ = write!(text, " {name}^{power}");
+                }
+            }
+        }
+    }
+    if text.is_empty() {
+        text.push('0');
+    }
+    text
+}
+
+fn format_coefficient(c: f64) -> String {
+    // Six significant digits, without trailing zeros.
+    let text = format!("{c:.6}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    text.to_owned()
+}
+
+fn human_summary<S: MetriplecticSystem>(
+    model: &Model<S>,
+    summary: &Summary,
+    stop_reason: StopReason,
+    out: &Path,
+) -> String {
+    let names = S::STATE_NAMES;
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "{}: {} iterations ({:?}), {:.1} s ({:.1} s in Clarabel), {} non-optimal solves",
+        summary.system,
+        summary.iterations,
+        stop_reason,
+        summary.seconds_total,
+        summary.seconds_solver,
+        summary.nonoptimal_solves
+    );
+    let _ = writeln!(
+        text,
+        "identified entropy:\n  S({}) = {}",
+        names.join(", "),
+        polynomial_to_string(
+            names,
+            S::ENTROPY_EXPONENTS,
+            model.entropy_coefficients(),
+            1e-6
+        )
+    );
+    let _ = writeln!(text, "identified metric K(x):");
+    let basis = S::METRIC_EXPONENTS.len();
+    for j in 0..S::DIM {
+        let row: Vec<String> = (0..S::DIM)
+            .map(|k| {
+                let pair = metriplectic_runtime::system::metric_pair_index(S::DIM, j, k);
+                polynomial_to_string(
+                    names,
+                    S::METRIC_EXPONENTS,
+                    &model.metric_coefficients()[pair * basis..(pair + 1) * basis],
+                    1e-6,
+                )
+            })
+            .collect();
+        let _ = writeln!(text, "  [{}]", row.join(", "));
+    }
+    let _ = writeln!(
+        text,
+        "held-out relative error {:.3e}, mean |residual| {:.3e}; free energy decreased on {:.3}% of simulated steps",
+        summary.heldout_relative_error,
+        summary.heldout_mean_abs_residual,
+        100.0 * summary.free_energy_decrease_fraction
+    );
+    let _ = write!(
+        text,
+        "wrote trajectories.png/.svg, loss.png, free_energy.png, history.csv, model.json, summary.json to {}",
+        out.display()
+    );
+    text
+}
