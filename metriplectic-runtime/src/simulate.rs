@@ -549,6 +549,19 @@ fn push_dense(
         states.extend_from_slice(x0);
         return Ok(());
     }
+    // The last step ends at x + (x_end − x), which may miss x_end by an ulp:
+    // clamp outputs within rounding of the end onto the last breakpoint.
+    let tau = match dense.evaluate(tau) {
+        Some(_) => tau,
+        None => {
+            let end = dense.bounds().1;
+            if tau > end && tau - end <= 1e-12 * tau.abs().max(1.0) {
+                end
+            } else {
+                tau
+            }
+        }
+    };
     let y = dense.evaluate(tau).ok_or_else(|| {
         invalid(
             "output time",
