@@ -287,19 +287,26 @@ pub fn emit(system: &System) -> TokenStream {
     // ---- monomials ---------------------------------------------------------
     let binding = monomial_names(system);
     let index = monomials::index_of(&system.monomials);
+    // One `let [..] = [..];` per degree: thousands of separate `let`s nest
+    // thousands of scopes, which overflows rustc's stack (measured: 3003 lets).
     let mut lets = Vec::new();
-    for (i, e) in system.monomials.iter().enumerate() {
-        let degree: u32 = e.iter().sum();
-        if degree < 2 {
-            continue;
+    let max_degree = system.entropy_degree.max(system.metric_degree);
+    for degree in 2..=max_degree {
+        let mut names = Vec::new();
+        let mut products = Vec::new();
+        for (i, e) in system.monomials.iter().enumerate() {
+            if e.iter().sum::<u32>() != degree {
+                continue;
+            }
+            let Some((parent, j)) = monomials::parent(e) else {
+                continue;
+            };
+            let parent_name = &binding[index[parent.as_slice()]];
+            let var = &state[j];
+            names.push(&binding[i]);
+            products.push(quote!(#parent_name * #var));
         }
-        let Some((parent, j)) = monomials::parent(e) else {
-            continue;
-        };
-        let parent_name = &binding[index[parent.as_slice()]];
-        let var = &state[j];
-        let this = &binding[i];
-        lets.push(quote!(let #this = #parent_name * #var;));
+        lets.push(quote!(let [#(#names),*] = [#(#products),*];));
     }
     let values = system.monomials.iter().enumerate().map(|(i, e)| {
         if e.iter().all(|&k| k == 0) {
