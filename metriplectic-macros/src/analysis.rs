@@ -182,7 +182,7 @@ impl Scope {
                         check_size(
                             span,
                             a.degree() + b.degree(),
-                            a.term_count() * b.term_count(),
+                            a.term_count().saturating_mul(b.term_count()),
                         )?;
                         a.mul(&b).map_err(overflow(span))?
                     }
@@ -792,6 +792,24 @@ mod tests {
         assert!(message("q +").contains("expected an operand"));
         assert!(message("q p").contains("expected an operator"));
         assert!(message("1.5f32 * q").contains("suffix"));
+    }
+
+    #[test]
+    fn pathological_sizes_are_errors_not_stack_overflows() {
+        let long = vec!["q"; 900].join(" + ");
+        assert!(poly(&long, &["q"]).is_ok());
+        let too_long = vec!["q"; 1100].join(" - ");
+        assert!(poly(&too_long, &["q"])
+            .unwrap_err()
+            .to_string()
+            .contains("too long"));
+        let deep = format!("{}q{}", "(".repeat(100), ")".repeat(100));
+        assert!(poly(&deep, &["q"])
+            .unwrap_err()
+            .to_string()
+            .contains("nested"));
+        let minus = format!("{}q", "- ".repeat(900));
+        assert!(poly(&minus, &["q"]).is_ok());
     }
 
     #[test]

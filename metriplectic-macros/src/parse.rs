@@ -548,6 +548,7 @@ impl ExprParser {
                 "expected an expression (two commas in a row?)",
             ));
         }
+        check_complexity(&self.tokens)?;
         let expr = self.sum()?;
         if let Some(token) = self.peek() {
             return Err(self.unexpected(&token.clone(), "expected an operator"));
@@ -753,6 +754,43 @@ impl ExprParser {
             format!("unexpected `{shown}`: {expected}{hint}"),
         )
     }
+}
+
+/// Largest number of tokens in one expression.
+const MAX_TOKENS: usize = 2_000;
+/// Deepest nesting of parentheses in one expression.
+const MAX_NESTING: usize = 64;
+
+/// Bounds the size and nesting of an expression so that the recursive parser
+/// and the analysis stay far from the compiler's stack limit.
+fn check_complexity(tokens: &[TokenTree]) -> syn::Result<()> {
+    fn walk(
+        tokens: &mut dyn Iterator<Item = TokenTree>,
+        depth: usize,
+        count: &mut usize,
+    ) -> syn::Result<()> {
+        for token in tokens {
+            *count += 1;
+            if *count > MAX_TOKENS {
+                return Err(syn::Error::new(
+                    token.span(),
+                    format!("expression too long (more than {MAX_TOKENS} tokens); simplify it"),
+                ));
+            }
+            if let TokenTree::Group(group) = &token {
+                if depth >= MAX_NESTING {
+                    return Err(syn::Error::new(
+                        group.span(),
+                        format!("parentheses nested more than {MAX_NESTING} deep; simplify the expression"),
+                    ));
+                }
+                walk(&mut group.stream().into_iter(), depth + 1, count)?;
+            }
+        }
+        Ok(())
+    }
+    let mut count = 0;
+    walk(&mut tokens.iter().cloned(), 0, &mut count)
 }
 
 /// A numeric literal as an exact rational.

@@ -186,7 +186,12 @@ impl Rational {
                 .and_then(|n| n.checked_add(i128::from(d)))
                 .ok_or(Overflow)?;
         }
-        let scale = exponent - frac_part.len() as i64;
+        let Some(scale) = i64::try_from(frac_part.len())
+            .ok()
+            .and_then(|digits| exponent.checked_sub(digits))
+        else {
+            return Err(Overflow);
+        };
         let power =
             Rational::integer(10).pow(scale.unsigned_abs().try_into().map_err(|_| Overflow)?)?;
         let value = Rational::integer(num);
@@ -529,6 +534,10 @@ mod tests {
         assert_eq!(p("1."), Rational::ONE);
         assert_eq!(Rational::parse_decimal("1x").unwrap(), None);
         assert_eq!(Rational::parse_decimal("1e400"), Err(Overflow));
+        assert_eq!(
+            Rational::parse_decimal("1.5e-9223372036854775808"),
+            Err(Overflow)
+        );
     }
 
     #[test]
