@@ -104,18 +104,18 @@ impl Oscillator {
         let &[q, p] = x else {
             panic!("Oscillator: the state has 2 entries (q, p), got {}", x.len())
         };
-        let [q2, q_p, p2] = [q * q, p * q, p * p];
-        let [q3, q2_p, q_p2, p3] = [q2 * q, q_p * q, p2 * q, p2 * p];
-        let [q4, q3_p, q2_p2, q_p3, p4] = [q3 * q, q2_p * q, q_p2 * q, p3 * q, p3 * p];
-        let [q5, q4_p, q3_p2, q2_p3, q_p4, p5] = [
+        let (q2, q_p, p2) = (q * q, p * q, p * p);
+        let (q3, q2_p, q_p2, p3) = (q2 * q, q_p * q, p2 * q, p2 * p);
+        let (q4, q3_p, q2_p2, q_p3, p4) = (q3 * q, q2_p * q, q_p2 * q, p3 * q, p3 * p);
+        let (q5, q4_p, q3_p2, q2_p3, q_p4, p5) = (
             q4 * q,
             q3_p * q,
             q2_p2 * q,
             q_p3 * q,
             p4 * q,
             p4 * p,
-        ];
-        let [q6, q5_p, q4_p2, q3_p3, q2_p4, q_p5, p6] = [
+        );
+        let (q6, q5_p, q4_p2, q3_p3, q2_p4, q_p5, p6) = (
             q5 * q,
             q4_p * q,
             q3_p2 * q,
@@ -123,8 +123,8 @@ impl Oscillator {
             q_p4 * q,
             p5 * q,
             p5 * p,
-        ];
-        let [q7, q6_p, q5_p2, q4_p3, q3_p4, q2_p5, q_p6, p7] = [
+        );
+        let (q7, q6_p, q5_p2, q4_p3, q3_p4, q2_p5, q_p6, p7) = (
             q6 * q,
             q5_p * q,
             q4_p2 * q,
@@ -133,8 +133,8 @@ impl Oscillator {
             q_p5 * q,
             p6 * q,
             p6 * p,
-        ];
-        let [q8, q7_p, q6_p2, q5_p3, q4_p4, q3_p5, q2_p6, q_p7, p8] = [
+        );
+        let (q8, q7_p, q6_p2, q5_p3, q4_p4, q3_p5, q2_p6, q_p7, p8) = (
             q7 * q,
             q6_p * q,
             q5_p2 * q,
@@ -144,7 +144,7 @@ impl Oscillator {
             q_p6 * q,
             p7 * q,
             p7 * p,
-        ];
+        );
         [
             1.0,
             q,

@@ -35,7 +35,7 @@ pub struct System {
     pub vis: Visibility,
     /// The struct's name.
     pub name: Ident,
-    /// State variables as written.
+    /// State variables as written, spanned at the macro call.
     pub state: Vec<Ident>,
     /// State variable names (raw-identifier prefix removed).
     pub state_names: Vec<String>,
@@ -500,7 +500,16 @@ pub fn analyse(def: SystemDef) -> syn::Result<System> {
         attrs: def.attrs,
         vis: def.vis,
         name: def.name,
-        state,
+        // Generated code is spanned at the macro call as a whole: lints such as
+        // clippy's `possible_missing_comma` then treat it as macro output
+        // instead of judging user-written tokens inside generated arrays.
+        state: state
+            .into_iter()
+            .map(|mut ident| {
+                ident.set_span(proc_macro2::Span::call_site());
+                ident
+            })
+            .collect(),
         state_names,
         consts,
         hamiltonian,

@@ -82,6 +82,23 @@ fn expression(poly: &Polynomial, state: &[Ident]) -> TokenStream {
     out
 }
 
+/// A polynomial as an array element: parenthesised unless it is a number or
+/// a lone (possibly negated) variable, because clippy's
+/// `possible_missing_comma` misreads binary expressions in macro-generated arrays.
+fn array_entry(poly: &Polynomial, state: &[Ident]) -> TokenStream {
+    let simple = poly.term_count() <= 1
+        && poly.terms().all(|(e, c)| {
+            let degree: u32 = e.iter().sum();
+            degree == 0 || (degree == 1 && c.to_f64().abs() == 1.0)
+        });
+    let expr = expression(poly, state);
+    if simple {
+        expr
+    } else {
+        quote!((#expr))
+    }
+}
+
 fn join_product(factors: &[TokenStream]) -> TokenStream {
     let mut out = TokenStream::new();
     for (i, f) in factors.iter().enumerate() {
@@ -306,7 +323,9 @@ pub fn emit(system: &System) -> TokenStream {
             names.push(&binding[i]);
             products.push(quote!(#parent_name * #var));
         }
-        lets.push(quote!(let [#(#names),*] = [#(#products),*];));
+        // A tuple, not an array: clippy's `possible_missing_comma` misreads
+        // products inside macro-generated arrays.
+        lets.push(quote!(let (#(#names,)*) = (#(#products,)*);));
     }
     let values = system.monomials.iter().enumerate().map(|(i, e)| {
         if e.iter().all(|&k| k == 0) {
@@ -379,10 +398,10 @@ pub fn emit(system: &System) -> TokenStream {
     let grad_exprs = system
         .hamiltonian_gradient
         .iter()
-        .map(|g| expression(g, state));
+        .map(|g| array_entry(g, state));
     let poisson_refs: Vec<&Polynomial> = system.poisson.iter().collect();
     let poisson_destructure = destructure(system, &uses(&poisson_refs, n));
-    let poisson_exprs = system.poisson.iter().map(|e| expression(e, state));
+    let poisson_exprs = system.poisson.iter().map(|e| array_entry(e, state));
 
     // ---- reference ---------------------------------------------------------
     let (reference_entropy, reference_metric, reference_fn) = match &system.reference {
