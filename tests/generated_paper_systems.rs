@@ -285,11 +285,16 @@ fn check_tables<S: MetriplecticSystem>(entropy: usize, metric: usize, half: usiz
     assert_eq!(S::ENTROPY_EXPONENTS.len(), entropy);
     assert_eq!(S::METRIC_EXPONENTS.len(), metric);
     assert!(S::METRIC_EXPONENTS[0].iter().all(|&k| k == 0));
-    assert!(S::ENTROPY_EXPONENTS.iter().all(|e| e.iter().sum::<u32>() >= 1));
+    assert!(S::ENTROPY_EXPONENTS
+        .iter()
+        .all(|e| e.iter().sum::<u32>() >= 1));
     assert_eq!(S::SOS_FULL.exponents.len(), half);
     assert_eq!(S::SOS_FULL.matching.len(), metric);
     for (alpha, pairs) in S::SOS_FULL.matching.iter().enumerate() {
-        assert!(!pairs.is_empty(), "metric monomial {alpha} has no Gram pair");
+        assert!(
+            !pairs.is_empty(),
+            "metric monomial {alpha} has no Gram pair"
+        );
         for &(b, g) in pairs.iter() {
             let sum: Vec<u32> = S::SOS_FULL.exponents[b as usize]
                 .iter()
@@ -373,4 +378,47 @@ fn rigid_body_assembly_blocks() {
 fn rigid_body_tables() {
     // 83 entropy monomials (degree 1..=6 in 3 variables), 10 metric monomials.
     check_tables::<RigidBody>(83, 10, 4);
+}
+
+metriplectic! {
+    /// State names that collide with generated names: `x` (the state
+    /// parameter), `value` (a generated local) and `x2` (the readable name of
+    /// the monomial x², which forces the fallback names).
+    struct Awkward;
+    state (x, x2, value);
+    const half = 1 / 2;
+    poisson = [[0, value, -x2], [-value, 0, x], [x2, -x, 0]];
+    hamiltonian = half * (x^2 + x2^2 + value^2) + x * x2 * value;
+    entropy degree 3;
+    metric degree 2;
+}
+
+#[test]
+fn colliding_state_names_generate_correct_code() {
+    let point = [0.3, -0.7, 1.1];
+    let (x, x2, value) = (point[0], point[1], point[2]);
+    assert_close(
+        "H",
+        Awkward::hamiltonian(&point),
+        0.5 * (x * x + x2 * x2 + value * value) + x * x2 * value,
+        1e-15,
+    );
+    let mut grad = [0.0; 3];
+    Awkward::hamiltonian_gradient(&point, &mut grad);
+    assert_all_close(
+        "∇H",
+        &grad,
+        &[x + x2 * value, x2 + x * value, value + x * x2],
+        1e-15,
+    );
+    let mut poisson = [0.0; 9];
+    Awkward::poisson(&point, &mut poisson);
+    assert_all_close(
+        "Π",
+        &poisson,
+        &[0.0, value, -x2, -value, 0.0, x, x2, -x, 0.0],
+        0.0,
+    );
+    check_features::<Awkward>(10);
+    check_blocks::<Awkward>(11);
 }

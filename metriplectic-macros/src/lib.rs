@@ -125,6 +125,38 @@ mod snapshot_tests {
         prettyplease::unparse(&file)
     }
 
+    /// A state named like a readable monomial name (`x2` for x²) switches
+    /// every monomial binding to collision-free fallback names.
+    #[test]
+    fn colliding_monomial_names_fall_back() {
+        let tokens = quote! {
+            struct Awkward;
+            state (x, x2);
+            poisson = [[0, 1], [-1, 0]];
+            hamiltonian = x^2;
+            entropy degree 2;
+            metric degree 0;
+        };
+        let text = pretty(super::expand(tokens).expect("valid system"));
+        assert!(
+            text.contains("let (monomial_3, monomial_4, monomial_5) = (x * x, x2 * x, x2 * x2);"),
+            "{text}"
+        );
+        let plain = quote! {
+            struct Plain;
+            state (x, y);
+            poisson = [[0, 1], [-1, 0]];
+            hamiltonian = x^2;
+            entropy degree 2;
+            metric degree 0;
+        };
+        let text = pretty(super::expand(plain).expect("valid system"));
+        assert!(
+            text.contains("let (x2, x_y, y2) = (x * x, y * x, y * y);"),
+            "{text}"
+        );
+    }
+
     /// What users see under `cargo expand`; `UPDATE_SNAPSHOTS=1` rewrites it.
     #[test]
     fn linear_2d_expansion_matches_snapshot() {
