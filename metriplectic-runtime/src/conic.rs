@@ -266,6 +266,31 @@ impl Regression {
     pub fn len(&self) -> usize {
         self.target.len()
     }
+
+    /// The columns of `self` followed by those of `right`, on the same rows;
+    /// the targets are `self`'s.
+    pub fn with_columns_of(&self, right: &Regression) -> Regression {
+        let (wl, wr) = (self.width, right.width);
+        let mut rows = Vec::with_capacity(self.len() * (wl + wr));
+        for i in 0..self.len() {
+            rows.extend_from_slice(&self.rows[i * wl..(i + 1) * wl]);
+            rows.extend_from_slice(&right.rows[i * wr..(i + 1) * wr]);
+        }
+        Regression {
+            width: wl + wr,
+            rows,
+            target: self.target.clone(),
+        }
+    }
+
+    /// Σᵢ |tᵢ − aᵢᵀ c|: the L1 objective at coefficients `c` (`width` long).
+    pub fn l1_residual(&self, c: &[f64]) -> f64 {
+        self.rows
+            .chunks_exact(self.width.max(1))
+            .zip(&self.target)
+            .map(|(row, t)| (t - row.iter().zip(c).map(|(a, x)| a * x).sum::<f64>()).abs())
+            .sum()
+    }
 }
 
 /// A solved (or failed) conic problem.

@@ -133,7 +133,10 @@ pub fn entropy_search<S: MetriplecticSystem>(
 }
 
 /// The dense rows M J(x)ᵀ and targets ẋ − M ∇H(x) of every sample.
-fn entropy_regression<S: MetriplecticSystem>(data: &Dataset, metric: &[f64]) -> Regression {
+pub(crate) fn entropy_regression<S: MetriplecticSystem>(
+    data: &Dataset,
+    metric: &[f64],
+) -> Regression {
     let n = S::DIM;
     let p = S::entropy_coefficient_count();
     let mut rows = vec![0.0; data.len() * n * p];

@@ -10,6 +10,15 @@
 //! non-increasing by construction; every rejected step is recorded in the
 //! [`History`].
 //!
+//! # Iteration schemes
+//!
+//! [`IterationScheme::Alternating`] (the default) is the paper's algorithm:
+//! metric search, then entropy search. [`IterationScheme::AlternatingThenJoint`]
+//! adds, on the same batch, a joint linearised step in both blocks inside an
+//! adaptive trust region ([`crate::joint_step`]), accepted under the same
+//! rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
+//! optimal, the pair not jointly stationary); the joint step removes that.
+//!
 //! # Stopping
 //!
 //! * the per-component cost on the iteration's batch reaches
@@ -34,6 +43,7 @@ use crate::cost::{check_dataset, model_cost, Cost};
 use crate::dataset::Dataset;
 use crate::entropy_search::{check_eta, entropy_search, EntropySearchOptions};
 use crate::error::{check_finite, check_len, Error, Result};
+use crate::joint_step::{joint_step, TrustRegion};
 use crate::metric_search::{metric_search, MetricSearchOptions, SosBasis};
 use crate::model::{identity_metric, Model};
 use crate::system::MetriplecticSystem;
@@ -69,6 +79,22 @@ pub struct IdentifyConfig {
     pub sos: SosBasis,
     /// Give up after this many consecutive iterations in which both solves failed.
     pub max_failed_iterations: usize,
+    /// Which steps each iteration takes (default: the paper's alternation).
+    pub scheme: IterationScheme,
+}
+
+/// The steps of one iteration of [`identify`].
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum IterationScheme {
+    /// The paper's Algorithms 1 and 2: metric search, then entropy search.
+    #[default]
+    Alternating,
+    /// Metric search, entropy search, then a joint linearised step in both
+    /// blocks ([`crate::joint_step`]) on the same batch, in a trust region
+    /// that adapts from step to step. Every step is accepted only if the
+    /// batch cost does not increase, so Theorem 1 still holds.
+    AlternatingThenJoint(TrustRegion),
 }
 
 impl Default for IdentifyConfig {
@@ -85,6 +111,7 @@ impl Default for IdentifyConfig {
             formulation: L1Formulation::default(),
             sos: SosBasis::default(),
             max_failed_iterations: 3,
+            scheme: IterationScheme::Alternating,
         }
     }
 }
@@ -146,6 +173,9 @@ impl IdentifyConfig {
             )?;
             check_finite("initial metric coefficients", metric)?;
         }
+        if let IterationScheme::AlternatingThenJoint(trust) = &self.scheme {
+            trust.validate()?;
+        }
         self.solver.validate()
     }
 }
@@ -187,6 +217,34 @@ pub struct IterationRecord {
     pub metric: StepRecord,
     /// The entropy search (metric fixed).
     pub entropy: StepRecord,
+    /// The joint step, if the scheme takes one.
+    #[serde(default)]
+    pub joint: Option<JointStepRecord>,
+}
+
+impl IterationRecord {
+    /// Cost of the current model on this iteration's batch after the
+    /// iteration's last step.
+    pub fn cost_after(&self) -> Cost {
+        self.joint
+            .as_ref()
+            .map_or(self.entropy.cost_after, |joint| joint.step.cost_after)
+    }
+}
+
+/// The joint step of one iteration ([`IterationScheme::AlternatingThenJoint`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JointStepRecord {
+    /// Solve report and outcome, as for the other steps.
+    pub step: StepRecord,
+    /// Trust radius Δ the step was taken with.
+    pub radius: f64,
+    /// Batch cost the linearised model predicted for the step (`None` if
+    /// the solver returned non-finite values).
+    pub predicted: Option<Cost>,
+    /// Actual decrease over predicted decrease, if the step was accepted
+    /// and a decrease was predicted.
+    pub ratio: Option<f64>,
 }
 
 /// The per-iteration history of an identification run.
@@ -205,7 +263,10 @@ impl History {
              metric_status,metric_outcome,metric_ipm_iterations,metric_assembly_s,metric_solver_s,\
              metric_candidate_per_component,metric_cost_after_sum,metric_cost_after_per_component,\
              entropy_status,entropy_outcome,entropy_ipm_iterations,entropy_assembly_s,entropy_solver_s,\
-             entropy_candidate_per_component,entropy_cost_after_sum,entropy_cost_after_per_component"
+             entropy_candidate_per_component,entropy_cost_after_sum,entropy_cost_after_per_component,\
+             joint_status,joint_outcome,joint_ipm_iterations,joint_assembly_s,joint_solver_s,\
+             joint_candidate_per_component,joint_cost_after_sum,joint_cost_after_per_component,\
+             joint_radius,joint_predicted_per_component,joint_ratio"
         )?;
         for r in &self.iterations {
             write!(
@@ -213,7 +274,15 @@ impl History {
                 "{},{},{},{}",
                 r.iteration, r.batch_size, r.cost_before.sum, r.cost_before.per_component
             )?;
-            for step in [&r.metric, &r.entropy] {
+            for step in [
+                Some(&r.metric),
+                Some(&r.entropy),
+                r.joint.as_ref().map(|j| &j.step),
+            ] {
+                let Some(step) = step else {
+                    write!(out, ",,,,,,,,")?;
+                    continue;
+                };
                 let candidate = step
                     .report
                     .cost
@@ -231,6 +300,19 @@ impl History {
                     step.cost_after.sum,
                     step.cost_after.per_component
                 )?;
+            }
+            match &r.joint {
+                Some(joint) => write!(
+                    out,
+                    ",{},{},{}",
+                    joint.radius,
+                    joint
+                        .predicted
+                        .map(|c| c.per_component.to_string())
+                        .unwrap_or_default(),
+                    joint.ratio.map(|c| c.to_string()).unwrap_or_default()
+                )?,
+                None => write!(out, ",,,")?,
             }
             writeln!(out)?;
         }
@@ -257,6 +339,20 @@ impl History {
                 } else {
                     counts[slot].2 += 1;
                 }
+            }
+        }
+        counts
+    }
+
+    /// Counts of each solver status of the joint steps (empty for the
+    /// alternating scheme).
+    pub fn joint_status_counts(&self) -> Vec<(SolveStatus, usize)> {
+        let mut counts: Vec<(SolveStatus, usize)> = Vec::new();
+        for joint in self.iterations.iter().filter_map(|r| r.joint.as_ref()) {
+            let status = joint.step.report.status;
+            match counts.iter_mut().find(|c| c.0 == status) {
+                Some(slot) => slot.1 += 1,
+                None => counts.push((status, 1)),
             }
         }
         counts
@@ -335,6 +431,10 @@ where
     let mut history = History::default();
     let mut failed_in_a_row = 0;
     let mut ever_accepted = false;
+    let mut radius = match &config.scheme {
+        IterationScheme::AlternatingThenJoint(trust) => trust.initial_radius,
+        IterationScheme::Alternating => 0.0,
+    };
 
     for iteration in 1..=config.max_iterations {
         let batch = match config.batch_size {
@@ -356,23 +456,55 @@ where
             m.set_entropy_coefficients(search.coefficients)
         });
 
-        let accepted = [&metric, &entropy]
-            .iter()
-            .any(|s| s.outcome == StepOutcome::Accepted);
+        let joint = match &config.scheme {
+            IterationScheme::Alternating => None,
+            IterationScheme::AlternatingThenJoint(trust) => {
+                let current = entropy.cost_after;
+                let step = joint_step::<S>(batch, &model, radius, &metric_options)?;
+                let record = decide(&mut model, current, step.report, |m| {
+                    *m = Model::new(step.entropy, step.metric)?;
+                    Ok(())
+                });
+                let ratio = match (record.outcome, step.predicted) {
+                    (StepOutcome::Accepted, Some(predicted)) if predicted.sum < current.sum => {
+                        Some((current.sum - record.cost_after.sum) / (current.sum - predicted.sum))
+                    }
+                    _ => None,
+                };
+                let taken = JointStepRecord {
+                    step: record,
+                    radius,
+                    predicted: step.predicted,
+                    ratio,
+                };
+                radius = trust.update(radius, ratio);
+                Some(taken)
+            }
+        };
+
+        let accepted = [
+            Some(&metric),
+            Some(&entropy),
+            joint.as_ref().map(|j| &j.step),
+        ]
+        .iter()
+        .flatten()
+        .any(|s| s.outcome == StepOutcome::Accepted);
         ever_accepted |= accepted;
         let both_failed = [&metric, &entropy]
             .iter()
             .all(|s| s.outcome == StepOutcome::RejectedFailed);
         failed_in_a_row = if both_failed { failed_in_a_row + 1 } else { 0 };
 
-        let cost_now = entropy.cost_after;
         let record = IterationRecord {
             iteration,
             batch_size: batch.len(),
             cost_before,
             metric,
             entropy,
+            joint,
         };
+        let cost_now = record.cost_after();
         let flow = observer(&record, &model);
         history.iterations.push(record);
 

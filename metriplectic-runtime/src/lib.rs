@@ -58,6 +58,7 @@ pub mod diagnostics;
 pub mod entropy_search;
 pub mod error;
 pub mod identify;
+pub mod joint_step;
 pub mod metric_search;
 pub mod model;
 mod model_io;
@@ -72,19 +73,20 @@ pub mod trajectory;
 
 pub use conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
 pub use cost::{model_cost, Cost};
+pub use csv_io::{read_trajectories, write_trajectories, CsvError, WriteMode};
 pub use dataset::{Dataset, DatasetError};
+pub use derivative::{estimate_derivatives, DerivativeMethod};
+pub use diagnostics::{free_energy_diagnostics, FreeEnergyReport};
 pub use entropy_search::{entropy_search, EntropySearch, EntropySearchOptions};
+pub use error::{Error, Result};
 pub use identify::{
     identify, identify_with_observer, History, Identification, IdentifyConfig, IterationRecord,
-    StepOutcome, StepRecord, StopReason,
+    IterationScheme, JointStepRecord, StepOutcome, StepRecord, StopReason,
 };
-pub use error::{Error, Result};
+pub use joint_step::{joint_step, JointStep, TrustRegion};
 pub use metric_search::{metric_search, MetricSearch, MetricSearchOptions, SosBasis};
 pub use metriplectic_macros::metriplectic;
 pub use model::Model;
-pub use csv_io::{read_trajectories, write_trajectories, CsvError, WriteMode};
-pub use derivative::{estimate_derivatives, DerivativeMethod};
-pub use diagnostics::{free_energy_diagnostics, FreeEnergyReport};
 pub use simulate::{simulate, OutputTimes, Simulation, SimulationError, SimulationOptions};
 pub use synthesize::{synthesize, SynthesisOptions, SyntheticData};
 pub use system::{MetriplecticSystem, SosTables};

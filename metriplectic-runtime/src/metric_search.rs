@@ -123,10 +123,10 @@ pub fn metric_search<S: MetriplecticSystem>(
 
     let start = std::time::Instant::now();
     let regression = metric_regression::<S>(data, entropy);
-    let (groups, gram_size) = sos_groups::<S>(&tables, options.eta);
+    let theta_len = S::metric_coefficient_count();
+    let (groups, gram_size) = sos_groups::<S>(&tables, options.eta, 0, theta_len);
     let build_seconds = start.elapsed().as_secs_f64();
 
-    let theta_len = S::metric_coefficient_count();
     let svec_size = svec_len(gram_size);
     let outcome = solve_l1(
         &regression,
@@ -184,7 +184,7 @@ pub fn theta_from_gram<S: MetriplecticSystem>(tables: &SosTables, gram: &[f64]) 
 }
 
 /// Errors unless the tables fit the system's metric basis.
-fn check_tables<S: MetriplecticSystem>(tables: &SosTables) -> Result<()> {
+pub(crate) fn check_tables<S: MetriplecticSystem>(tables: &SosTables) -> Result<()> {
     let bad = |reason: String| Error::InvalidArgument {
         what: format!("SOS tables of system `{}`", S::NAME),
         reason,
@@ -219,11 +219,14 @@ fn constant_monomial<S: MetriplecticSystem>() -> Option<usize> {
         .position(|e| e.iter().all(|&d| d == 0))
 }
 
-/// The zero-cone matching rows and the two PSD cones over the variables
-/// `[θ | svec Q₁ | svec Q₂]`.
-fn sos_groups<S: MetriplecticSystem>(
+/// The zero-cone matching rows and the two PSD cones (groups 0, 1, 2), with
+/// θ in the columns from `theta_column` and `[svec Q₁ | svec Q₂]` from
+/// `gram_column`. Also returns the Gram side N.
+pub(crate) fn sos_groups<S: MetriplecticSystem>(
     tables: &SosTables,
     eta: f64,
+    theta_column: usize,
+    gram_column: usize,
 ) -> (Vec<ConstraintGroup>, usize) {
     let n = S::DIM;
     let basis = S::METRIC_EXPONENTS.len();
@@ -231,8 +234,8 @@ fn sos_groups<S: MetriplecticSystem>(
     let size = n * m;
     let theta_len = S::metric_coefficient_count();
     let svec_size = svec_len(size);
-    let q1 = theta_len;
-    let q2 = theta_len + svec_size;
+    let q1 = gram_column;
+    let q2 = gram_column + svec_size;
     let constant = constant_monomial::<S>().unwrap_or(0);
 
     // Rows 2t: θ_t − Σ Q₁ = 0 ; rows 2t+1: θ_t + Σ Q₂ = η[j=k][α=0].
@@ -243,8 +246,8 @@ fn sos_groups<S: MetriplecticSystem>(
             let pair = metric_pair_index(n, j, k);
             for (alpha, pairs) in tables.matching.iter().enumerate() {
                 let t = pair * basis + alpha;
-                entries.push((2 * t, t, 1.0));
-                entries.push((2 * t + 1, t, 1.0));
+                entries.push((2 * t, theta_column + t, 1.0));
+                entries.push((2 * t + 1, theta_column + t, 1.0));
                 for &(beta, gamma) in pairs.iter() {
                     let a = j * m + beta as usize;
                     let b = k * m + gamma as usize;
@@ -274,7 +277,10 @@ fn sos_groups<S: MetriplecticSystem>(
 }
 
 /// The dense rows of θ ↦ K(x; θ) g and targets ẋ − Π g of every sample.
-fn metric_regression<S: MetriplecticSystem>(data: &Dataset, entropy: &[f64]) -> Regression {
+pub(crate) fn metric_regression<S: MetriplecticSystem>(
+    data: &Dataset,
+    entropy: &[f64],
+) -> Regression {
     let n = S::DIM;
     let width = S::metric_coefficient_count();
     let mut rows = vec![0.0; data.len() * n * width];
