@@ -3,7 +3,7 @@
 //!
 //! Use it through `metriplectic_runtime`, which re-exports it and provides the
 //! `MetriplecticSystem` trait the generated code implements. The pipeline is
-//! one module per stage: [`parse`](crate::parse) (tokens → syntax tree with
+//! one module per stage: `parse` (tokens → syntax tree with
 //! spans), `analysis` (syntax tree → exact polynomials, every check),
 //! `monomials` (graded-lex bases and SOS tables), `emit` (readable Rust).
 
