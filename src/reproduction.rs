@@ -316,7 +316,7 @@ pub fn perturbed_entropy<S: MetriplecticSystem>(
     let normal = Normal::new(0.0, std)
         .map_err(|e| ReproductionError::Option(format!("initial entropy noise {std}: {e}")))?;
     // A stream of its own, so changing the data size does not change the start.
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0f_e7a0);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0FE7_A0A0);
     Ok(truth
         .entropy_coefficients()
         .iter()
