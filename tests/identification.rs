@@ -5,17 +5,25 @@ mod common;
 
 use common::paper_systems::*;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{identify, identify_with_observer, History, IdentifyConfig};
+use metriplectic_runtime::synthesize::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
+use metriplectic_runtime::{
+    identify, identify_with_observer, History, IdentifyConfig, IterationScheme, StepOutcome,
+    TrustRegion,
+};
 use std::ops::ControlFlow;
 
 fn assert_non_increasing(history: &History) {
     let mut previous = f64::INFINITY;
     for r in &history.iterations {
         for cost in [
-            r.cost_before.sum,
-            r.metric.cost_after.sum,
-            r.entropy.cost_after.sum,
-        ] {
+            Some(r.cost_before.sum),
+            Some(r.metric.cost_after.sum),
+            Some(r.entropy.cost_after.sum),
+            r.joint.as_ref().map(|j| j.step.cost_after.sum),
+        ]
+        .into_iter()
+        .flatten()
+        {
             assert!(
                 cost <= previous,
                 "iteration {}: cost rose from {previous:e} to {cost:e}",
@@ -128,5 +136,168 @@ fn model_file_round_trips_and_rejects_the_wrong_system() {
     assert!(
         message.contains("Linear2d") && message.contains("RigidBody"),
         "{message}"
+    );
+}
+
+/// The issue's data protocol at reduced size: noise-free trajectories of the
+/// reference 2-D model from initial states uniform in [−1.5, 1.5]², sampled
+/// at log-uniform times in [1e-3, 5]; (training, held-out).
+fn linear2d_trajectories(
+    train: usize,
+    held_out: usize,
+    per: usize,
+    seed: u64,
+) -> (Dataset, Dataset) {
+    let truth = Model::<Linear2d>::reference().unwrap();
+    let options = SynthesisOptions {
+        trajectories: train + held_out,
+        held_out_trajectories: held_out,
+        duration: 5.0,
+        seed,
+        ..SynthesisOptions::new(
+            InitialStates::cube(2, 1.5),
+            SampleTimes::LogUniform {
+                count: per,
+                first: 1e-3,
+            },
+        )
+    };
+    let data = synthesize(&truth, &options).unwrap();
+    (data.train, data.held_out.unwrap())
+}
+
+/// ‖f_fit − f_true‖ / ‖f_true‖ (Euclidean, over all held-out states).
+fn vector_field_error<S: MetriplecticSystem>(model: &Model<S>, held_out: &Dataset) -> f64 {
+    let truth = Model::<S>::reference().unwrap();
+    let (mut fit, mut reference) = (vec![0.0; S::DIM], vec![0.0; S::DIM]);
+    let (mut diff2, mut true2) = (0.0, 0.0);
+    for (x, _) in held_out.iter() {
+        model.vector_field(x, &mut fit).unwrap();
+        truth.vector_field(x, &mut reference).unwrap();
+        for (f, t) in fit.iter().zip(&reference) {
+            diff2 += (f - t).powi(2);
+            true2 += t.powi(2);
+        }
+    }
+    (diff2 / true2).sqrt()
+}
+
+fn with_joint_steps(config: IdentifyConfig) -> IdentifyConfig {
+    IdentifyConfig {
+        scheme: IterationScheme::AlternatingThenJoint(TrustRegion::default()),
+        ..config
+    }
+}
+
+/// Theorem 1 with the joint step: on the full batch every step (metric,
+/// entropy, joint) leaves the cost non-increasing, and joint steps are taken.
+#[test]
+fn joint_scheme_full_batch_cost_is_non_increasing() {
+    let (data, _) = linear2d_trajectories(8, 1, 30, 31);
+    let config = with_joint_steps(IdentifyConfig {
+        max_iterations: 8,
+        tolerance: 0.0,
+        initial_entropy: Some(perturbed_reference_entropy::<Linear2d>(0.5, 31)),
+        ..IdentifyConfig::default()
+    });
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    assert_eq!(result.history.iterations.len(), 8);
+    assert_non_increasing(&result.history);
+    let joints: Vec<_> = result
+        .history
+        .iterations
+        .iter()
+        .map(|r| r.joint.as_ref().expect("the scheme takes a joint step"))
+        .collect();
+    let accepted = joints
+        .iter()
+        .filter(|j| j.step.outcome == StepOutcome::Accepted)
+        .count();
+    eprintln!(
+        "full batch: cost {:.3e} -> {:.3e}, {accepted}/8 joint steps accepted, radii {:?}",
+        result.history.iterations[0].cost_before.per_component,
+        result.history.iterations[7].cost_after().per_component,
+        joints.iter().map(|j| j.radius).collect::<Vec<_>>()
+    );
+    assert!(accepted >= 1, "no joint step was ever accepted");
+    assert_eq!(
+        result.history.joint_status_counts(),
+        vec![(metriplectic_runtime::SolveStatus::Solved, 8)]
+    );
+}
+
+/// Algorithm 2 on the 2-D system at reduced size (q = 300, 600 samples from
+/// 20 trajectories, start = truth + N(0, 0.5²)). Measured in release: the
+/// paper's alternation alone is still at a held-out error of 0.23 after 40
+/// iterations (it crawls: each block is optimal, the pair is not jointly
+/// stationary); with the joint step the error is ≤ 1e-6 within 5–14
+/// iterations over seeds 1–7 and reaches ~1e-11 (rounding level) shortly
+/// after. The test asserts 1e-8 within 30 iterations, and that the
+/// alternation alone is far from it with the same budget.
+#[test]
+fn joint_scheme_identifies_linear2d_far_below_the_alternating_crawl() {
+    let (train, held_out) = linear2d_trajectories(20, 20, 30, 32);
+    let start = perturbed_reference_entropy::<Linear2d>(0.5, 32);
+    let alternating = IdentifyConfig {
+        batch_size: Some(300),
+        max_iterations: 30,
+        tolerance: 1e-10,
+        seed: 32,
+        initial_entropy: Some(start),
+        ..IdentifyConfig::default()
+    };
+    let joint = with_joint_steps(alternating.clone());
+
+    let result = identify_with_observer::<Linear2d, _>(&train, &joint, |r, model| {
+        let j = r.joint.as_ref().expect("the scheme takes a joint step");
+        eprintln!(
+            "joint scheme, iteration {}: batch cost {:.3e} -> {:.3e}, joint {:?} at radius {:.2e}, \
+             held-out error {:.3e}, statuses {} {} {}",
+            r.iteration,
+            r.cost_before.per_component,
+            r.cost_after().per_component,
+            j.step.outcome,
+            j.radius,
+            vector_field_error(model, &held_out),
+            r.metric.report.status,
+            r.entropy.report.status,
+            j.step.report.status
+        );
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let joint_error = vector_field_error(&result.model, &held_out);
+    let iterations = result.history.iterations.len();
+    let alternating_result = identify::<Linear2d>(&train, &alternating).unwrap();
+    let alternating_error = vector_field_error(&alternating_result.model, &held_out);
+    eprintln!(
+        "after {iterations} iterations ({:?}) the joint scheme's held-out error is {joint_error:.3e}; \
+         the alternation alone after {} is {alternating_error:.3e}",
+        result.stop_reason,
+        alternating_result.history.iterations.len()
+    );
+    assert!(joint_error <= 1e-8, "held-out error {joint_error:e}");
+    assert!(
+        alternating_error > 1e-3,
+        "the alternation alone reached {alternating_error:e}: this test no longer shows the joint step's effect"
+    );
+    // Joint solves end Solved; the alternating subproblems are usable
+    // (measured with this seed: one entropy search of 7 ended AlmostSolved,
+    // at iteration 3; the q = 2000 runs had none).
+    eprintln!(
+        "statuses (metric, entropy): {:?}",
+        result.history.status_counts()
+    );
+    for r in &result.history.iterations {
+        let statuses = [r.metric.report.status, r.entropy.report.status];
+        assert!(
+            statuses.iter().all(|s| s.is_usable()),
+            "iteration {}: {statuses:?}",
+            r.iteration
+        );
+    }
+    assert_eq!(
+        result.history.joint_status_counts(),
+        vec![(metriplectic_runtime::SolveStatus::Solved, iterations)]
     );
 }
