@@ -66,9 +66,19 @@ pub fn write_all(
         .iter()
         .map(|r| r.entropy.cost_after.per_component)
         .collect();
+    let joint: Vec<f64> = history
+        .iterations
+        .iter()
+        .filter_map(|r| r.joint.as_ref().map(|j| j.step.cost_after.per_component))
+        .collect();
+    let mut series: Vec<(&str, &[f64])> =
+        vec![("metric search", &metric), ("entropy search", &entropy)];
+    if joint.len() == history.iterations.len() && !joint.is_empty() {
+        series.push(("joint step", &joint));
+    }
     loss_curves(
         out.join("loss.png"),
-        &[("metric search", &metric), ("entropy search", &entropy)],
+        &series,
         &Labels {
             title: "Minibatch loss (mean |residual| per component)",
             x: "iteration",
@@ -76,17 +86,28 @@ pub fn write_all(
             ..Labels::default()
         },
     )?;
-    let curves: Vec<(&[f64], &[f64])> = simulations
+    // S, and so E, is identified up to an additive constant (the constant
+    // monomial has zero gradient). Anchor E at the largest value any
+    // trajectory reaches: for an exact model that is E = 0 on the zero set,
+    // so the curve is the paper's −E.
+    let top = simulations
         .iter()
-        .map(|s| (s.trajectory.times(), s.free_energy.as_slice()))
+        .flat_map(|s| s.free_energy.iter().copied())
+        .fold(f64::NEG_INFINITY, f64::max);
+    let curves: Vec<(&[f64], Vec<f64>)> = simulations
+        .iter()
+        .map(|s| {
+            let shifted = s.free_energy.iter().map(|e| e - top).collect();
+            (s.trajectory.times(), shifted)
+        })
         .collect();
     free_energy_curves(
         out.join("free_energy.png"),
         &curves,
         &Labels {
-            title: "Free energy along simulated trajectories of the identified model",
+            title: "Free energy along simulated trajectories (E* = largest E reached)",
             x: "t",
-            y: "−E",
+            y: "−(E − E*)",
             ..Labels::default()
         },
     )?;

@@ -1,0 +1,161 @@
+//! The paper reproductions at reduced size: the same systems and pipeline as
+//! `examples/linear_2d.rs` and `examples/rigid_body_so3.rs` (included below),
+//! with smaller data, minibatches and iteration caps so they run in CI.
+
+use std::path::{Path, PathBuf};
+
+use metriplectic::reproduction::{run, Options, Scheme, Summary};
+use metriplectic_runtime::prelude::*;
+
+#[allow(dead_code)]
+#[path = "../examples/linear_2d.rs"]
+mod linear_2d;
+#[allow(dead_code)]
+#[path = "../examples/rigid_body_so3.rs"]
+mod rigid_body_so3;
+
+fn output_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn reduced_options(out: &Path, batch_size: usize, iterations: usize) -> Options {
+    Options {
+        seed: 3,
+        batch_size,
+        iterations: Some(iterations),
+        tolerance: 1e-9,
+        out: Some(out.to_owned()),
+        force: false,
+        plot_trajectories: 12,
+        train_trajectories: 40,
+        heldout_trajectories: 4,
+        samples_per_trajectory: 30,
+        scheme: Scheme::Joint,
+        quiet: true,
+    }
+}
+
+/// Every output file exists and parses; returns the parsed summary.
+fn check_outputs<S: MetriplecticSystem>(out: &Path, summary: &Summary) -> Summary {
+    for figure in ["trajectories.png", "loss.png", "free_energy.png"] {
+        let bytes = std::fs::read(out.join(figure)).unwrap();
+        assert!(
+            bytes.starts_with(b"\x89PNG\r\n\x1a\n"),
+            "{figure} is not a PNG"
+        );
+        assert!(bytes.len() > 10_000, "{figure} is suspiciously small");
+    }
+    let svg = std::fs::read_to_string(out.join("trajectories.svg")).unwrap();
+    assert!(svg.contains("<svg") && svg.trim_end().ends_with("</svg>"));
+
+    let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    assert_eq!(
+        history.lines().count(),
+        summary.iterations + 1,
+        "one row per iteration plus header"
+    );
+
+    let model = Model::<S>::load(out.join("model.json")).unwrap();
+    assert!(model.entropy_coefficients().iter().all(|c| c.is_finite()));
+
+    let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    let value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let mut keys: Vec<&str> = value
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(String::as_str)
+        .collect();
+    keys.sort_unstable();
+    let mut expected = vec![
+        "system",
+        "seed",
+        "samples_train",
+        "samples_heldout",
+        "batch_size",
+        "iterations",
+        "final_metric_cost",
+        "final_entropy_cost",
+        "heldout_relative_error",
+        "heldout_mean_abs_residual",
+        "free_energy_decrease_fraction",
+        "nonoptimal_solves",
+        "seconds_total",
+        "seconds_solver",
+    ];
+    expected.sort_unstable();
+    assert_eq!(
+        keys, expected,
+        "summary.json must have exactly the documented keys"
+    );
+    let parsed: Summary = serde_json::from_str(&text).unwrap();
+    assert_eq!(&parsed, summary);
+    parsed
+}
+
+#[test]
+fn rigid_body_so3_reduced_reproduction_converges() {
+    let out = output_dir("repro_so3");
+    let summary = run::<rigid_body_so3::RigidBody>(
+        &rigid_body_so3::experiment(),
+        &reduced_options(&out, 300, 30),
+    )
+    .unwrap();
+    check_outputs::<rigid_body_so3::RigidBody>(&out, &summary);
+    assert_eq!(summary.system, "RigidBody");
+    assert_eq!(summary.samples_train, 40 * 30);
+    assert_eq!(summary.samples_heldout, 4 * 30);
+    assert!(
+        summary.heldout_relative_error <= 1e-6,
+        "held-out relative error {:e} after {} iterations",
+        summary.heldout_relative_error,
+        summary.iterations
+    );
+    assert_eq!(summary.free_energy_decrease_fraction, 0.0);
+    assert_eq!(summary.nonoptimal_solves, 0);
+}
+
+#[test]
+fn linear_2d_reduced_reproduction_converges() {
+    let out = output_dir("repro_linear_2d");
+    let summary =
+        run::<linear_2d::Oscillator>(&linear_2d::experiment(), &reduced_options(&out, 300, 30))
+            .unwrap();
+    let parsed = check_outputs::<linear_2d::Oscillator>(&out, &summary);
+    assert_eq!(parsed.system, "Oscillator");
+    assert!(
+        summary.heldout_relative_error <= 1e-6,
+        "held-out relative error {:e} after {} iterations",
+        summary.heldout_relative_error,
+        summary.iterations
+    );
+    assert_eq!(summary.free_energy_decrease_fraction, 0.0);
+    assert_eq!(summary.nonoptimal_solves, 0);
+}
+
+#[test]
+fn reproduction_refuses_a_non_empty_output_directory() {
+    let out = output_dir("repro_not_empty");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("keep.txt"), "precious").unwrap();
+    let err = run::<linear_2d::Oscillator>(&linear_2d::experiment(), &reduced_options(&out, 50, 1))
+        .unwrap_err();
+    assert!(err.to_string().contains("--force"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("keep.txt")).unwrap(),
+        "precious"
+    );
+}
+
+#[test]
+fn polynomial_printing_names_terms_and_skips_small_ones() {
+    let text = metriplectic::reproduction::polynomial_to_string(
+        &["q", "p"],
+        &[&[2, 0], &[1, 1], &[0, 3]],
+        &[-0.5, 1e-9, 4.0],
+        1e-6,
+    );
+    assert_eq!(text, "-0.5 q^2 + 4 p^3");
+}
