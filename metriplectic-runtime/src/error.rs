@@ -99,6 +99,28 @@ pub enum Error {
         /// The existing file.
         path: PathBuf,
     },
+    /// A file is larger than the reader accepts (guards against exhausting
+    /// memory on a corrupt or hostile file).
+    #[error("{path}: file has {size} bytes, more than the {limit} accepted for {what}")]
+    FileTooLarge {
+        /// The file.
+        path: PathBuf,
+        /// What the file was read as (e.g. "a model file").
+        what: String,
+        /// Its size in bytes.
+        size: u64,
+        /// The largest size accepted.
+        limit: u64,
+    },
+    /// A checkpoint does not belong to the run it was asked to resume
+    /// (another system, other data or another configuration).
+    #[error("checkpoint {path} cannot resume this run: {reason}")]
+    CheckpointMismatch {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// What differs.
+        reason: String,
+    },
     /// A figure could not be made (feature `plot`).
     #[cfg(feature = "plot")]
     #[error(transparent)]

@@ -30,14 +30,23 @@
 //!   accepted before, the best model so far is returned with
 //!   [`StopReason::SolverFailures`]; if none ever was, no progress was possible
 //!   and the result is [`Error::IdentificationFailed`].
+//!
+//! # Checkpoints
+//!
+//! With [`IdentifyConfig::checkpoint`] set, the run's full state is saved
+//! atomically every few iterations and when it stops
+//! ([`crate::checkpoint`]); [`identify_resume`] continues it, with the
+//! same history an uninterrupted run would have had.
 
 use std::io::Write;
 use std::ops::ControlFlow;
+use std::path::Path;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+pub use crate::checkpoint::CheckpointConfig;
 use crate::conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
 use crate::cost::{check_dataset, model_cost, Cost};
 use crate::dataset::Dataset;
@@ -81,6 +90,9 @@ pub struct IdentifyConfig {
     pub max_failed_iterations: usize,
     /// Which steps each iteration takes (default: the paper's alternation).
     pub scheme: IterationScheme,
+    /// Periodic checkpoints of the run's full state, from which
+    /// [`identify_resume`] continues it (`None`: no checkpoints).
+    pub checkpoint: Option<CheckpointConfig>,
 }
 
 /// The steps of one iteration of [`identify`].
@@ -112,6 +124,7 @@ impl Default for IdentifyConfig {
             sos: SosBasis::default(),
             max_failed_iterations: 3,
             scheme: IterationScheme::Alternating,
+            checkpoint: None,
         }
     }
 }
@@ -175,6 +188,9 @@ impl IdentifyConfig {
         }
         if let IterationScheme::AlternatingThenJoint(trust) = &self.scheme {
             trust.validate()?;
+        }
+        if let Some(checkpoint) = &self.checkpoint {
+            checkpoint.validate()?;
         }
         self.solver.validate()
     }
@@ -398,7 +414,7 @@ pub fn identify<S: MetriplecticSystem>(
 pub fn identify_with_observer<S, F>(
     data: &Dataset,
     config: &IdentifyConfig,
-    mut observer: F,
+    observer: F,
 ) -> Result<Identification<S>>
 where
     S: MetriplecticSystem,
@@ -406,7 +422,7 @@ where
 {
     check_dataset::<S>(data)?;
     config.validate::<S>(data.len())?;
-    let mut model = Model::<S>::new(
+    let model = Model::<S>::new(
         config
             .initial_entropy
             .clone()
@@ -416,6 +432,94 @@ where
             .clone()
             .unwrap_or_else(|| identity_metric::<S>(1.0)),
     )?;
+    let state = RunState {
+        model,
+        history: History::default(),
+        rng: ChaCha8Rng::seed_from_u64(config.seed),
+        failed_in_a_row: 0,
+        ever_accepted: false,
+        radius: match &config.scheme {
+            IterationScheme::AlternatingThenJoint(trust) => trust.initial_radius,
+            IterationScheme::Alternating => 0.0,
+        },
+        stopped: None,
+    };
+    run(data, config, state, observer)
+}
+
+/// Continues the run saved in the checkpoint at `path` (written by a run
+/// with [`IdentifyConfig::checkpoint`] set) on the same `data` with the same
+/// `config`, as if it had never stopped: with the same seed, the resumed
+/// run's history equals that of an uninterrupted run.
+///
+/// `config` may raise [`IdentifyConfig::max_iterations`] (to extend a run)
+/// and change [`IdentifyConfig::checkpoint`]; anything else that differs
+/// from the checkpointed run, or other data, is
+/// [`Error::CheckpointMismatch`] naming what differs. A checkpoint of a run
+/// that had converged or given up on solver failures is returned as is.
+pub fn identify_resume<S: MetriplecticSystem>(
+    path: impl AsRef<Path>,
+    data: &Dataset,
+    config: &IdentifyConfig,
+) -> Result<Identification<S>> {
+    identify_resume_with_observer(path, data, config, |_, _| ControlFlow::Continue(()))
+}
+
+/// [`identify_resume`] with an observer, as in [`identify_with_observer`];
+/// it sees only the iterations run after resuming.
+pub fn identify_resume_with_observer<S, F>(
+    path: impl AsRef<Path>,
+    data: &Dataset,
+    config: &IdentifyConfig,
+    observer: F,
+) -> Result<Identification<S>>
+where
+    S: MetriplecticSystem,
+    F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
+{
+    check_dataset::<S>(data)?;
+    config.validate::<S>(data.len())?;
+    let state = crate::checkpoint::load::<S>(path.as_ref(), data, config)?;
+    match state.stopped {
+        Some(reason @ (StopReason::Converged | StopReason::SolverFailures)) => Ok(Identification {
+            model: state.model,
+            history: state.history,
+            stop_reason: reason,
+        }),
+        _ => run(data, config, state, observer),
+    }
+}
+
+/// Everything a run carries from one iteration to the next: what a
+/// checkpoint saves.
+pub(crate) struct RunState<S: MetriplecticSystem> {
+    /// The current (last accepted) model.
+    pub(crate) model: Model<S>,
+    /// The iterations so far.
+    pub(crate) history: History,
+    /// The minibatch generator, positioned after the last batch drawn.
+    pub(crate) rng: ChaCha8Rng,
+    /// Consecutive iterations in which both solves failed.
+    pub(crate) failed_in_a_row: usize,
+    /// Whether any step was ever accepted.
+    pub(crate) ever_accepted: bool,
+    /// Trust radius of the next joint step (0 for the alternating scheme).
+    pub(crate) radius: f64,
+    /// Why the run stopped, if it did.
+    pub(crate) stopped: Option<StopReason>,
+}
+
+/// The iterations of [`identify_with_observer`] from `state` on.
+fn run<S, F>(
+    data: &Dataset,
+    config: &IdentifyConfig,
+    mut state: RunState<S>,
+    mut observer: F,
+) -> Result<Identification<S>>
+where
+    S: MetriplecticSystem,
+    F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
+{
     let metric_options = MetricSearchOptions {
         eta: config.eta,
         formulation: config.formulation,
@@ -427,32 +531,27 @@ where
         formulation: config.formulation,
         solver: config.solver.clone(),
     };
-    let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
-    let mut history = History::default();
-    let mut failed_in_a_row = 0;
-    let mut ever_accepted = false;
-    let mut radius = match &config.scheme {
-        IterationScheme::AlternatingThenJoint(trust) => trust.initial_radius,
-        IterationScheme::Alternating => 0.0,
-    };
+    let first = state.history.iterations.len() + 1;
+    state.stopped = None;
 
-    for iteration in 1..=config.max_iterations {
+    for iteration in first..=config.max_iterations {
         let batch = match config.batch_size {
             None => None,
             Some(q) => {
-                let indices = rand::seq::index::sample(&mut rng, data.len(), q).into_vec();
+                let indices = rand::seq::index::sample(&mut state.rng, data.len(), q).into_vec();
                 Some(data.select(&indices)?)
             }
         };
         let batch = batch.as_ref().unwrap_or(data);
-        let cost_before = model_cost(&model, batch)?;
+        let model = &mut state.model;
+        let cost_before = model_cost(model, batch)?;
 
         let search = metric_search::<S>(batch, model.entropy_coefficients(), &metric_options)?;
-        let metric = decide(&mut model, cost_before, search.report, |m| {
+        let metric = decide(model, cost_before, search.report, |m| {
             m.set_metric_coefficients(search.coefficients)
         });
         let search = entropy_search::<S>(batch, model.metric_coefficients(), &entropy_options)?;
-        let entropy = decide(&mut model, metric.cost_after, search.report, |m| {
+        let entropy = decide(model, metric.cost_after, search.report, |m| {
             m.set_entropy_coefficients(search.coefficients)
         });
 
@@ -460,8 +559,9 @@ where
             IterationScheme::Alternating => None,
             IterationScheme::AlternatingThenJoint(trust) => {
                 let current = entropy.cost_after;
-                let step = joint_step::<S>(batch, &model, radius, &metric_options)?;
-                let record = decide(&mut model, current, step.report, |m| {
+                let radius = state.radius;
+                let step = joint_step::<S>(batch, model, radius, &metric_options)?;
+                let record = decide(model, current, step.report, |m| {
                     *m = Model::new(step.entropy, step.metric)?;
                     Ok(())
                 });
@@ -477,7 +577,7 @@ where
                     predicted: step.predicted,
                     ratio,
                 };
-                radius = trust.update(radius, ratio);
+                state.radius = trust.update(radius, ratio);
                 Some(taken)
             }
         };
@@ -490,11 +590,15 @@ where
         .iter()
         .flatten()
         .any(|s| s.outcome == StepOutcome::Accepted);
-        ever_accepted |= accepted;
+        state.ever_accepted |= accepted;
         let both_failed = [&metric, &entropy]
             .iter()
             .all(|s| s.outcome == StepOutcome::RejectedFailed);
-        failed_in_a_row = if both_failed { failed_in_a_row + 1 } else { 0 };
+        state.failed_in_a_row = if both_failed {
+            state.failed_in_a_row + 1
+        } else {
+            0
+        };
 
         let record = IterationRecord {
             iteration,
@@ -505,12 +609,12 @@ where
             joint,
         };
         let cost_now = record.cost_after();
-        let flow = observer(&record, &model);
-        history.iterations.push(record);
+        let flow = observer(&record, &state.model);
+        state.history.iterations.push(record);
 
-        if failed_in_a_row >= config.max_failed_iterations {
-            if !ever_accepted {
-                let last = &history.iterations[history.iterations.len() - 1];
+        if state.failed_in_a_row >= config.max_failed_iterations {
+            if !state.ever_accepted {
+                let last = &state.history.iterations[state.history.iterations.len() - 1];
                 return Err(Error::IdentificationFailed {
                     iterations: iteration,
                     reason: format!(
@@ -519,31 +623,28 @@ where
                     ),
                 });
             }
-            return Ok(Identification {
-                model,
-                history,
-                stop_reason: StopReason::SolverFailures,
-            });
+            state.stopped = Some(StopReason::SolverFailures);
+        } else if cost_now.per_component <= config.tolerance {
+            state.stopped = Some(StopReason::Converged);
+        } else if flow.is_break() {
+            state.stopped = Some(StopReason::Interrupted);
+        } else if iteration == config.max_iterations {
+            state.stopped = Some(StopReason::MaxIterations);
         }
-        if cost_now.per_component <= config.tolerance {
-            return Ok(Identification {
-                model,
-                history,
-                stop_reason: StopReason::Converged,
-            });
+        if let Some(checkpoint) = &config.checkpoint {
+            if state.stopped.is_some() || iteration % checkpoint.every == 0 {
+                crate::checkpoint::save(&checkpoint.path, data, config, &state)?;
+            }
         }
-        if flow.is_break() {
-            return Ok(Identification {
-                model,
-                history,
-                stop_reason: StopReason::Interrupted,
-            });
+        if state.stopped.is_some() {
+            break;
         }
     }
     Ok(Identification {
-        model,
-        history,
-        stop_reason: StopReason::MaxIterations,
+        model: state.model,
+        history: state.history,
+        // A resumed run whose cap was already reached runs no iteration.
+        stop_reason: state.stopped.unwrap_or(StopReason::MaxIterations),
     })
 }
 

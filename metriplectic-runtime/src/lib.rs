@@ -49,6 +49,7 @@ extern crate openblas_src as _;
 // Lets the macro's `::metriplectic_runtime::…` paths resolve inside this crate's own tests.
 extern crate self as metriplectic_runtime;
 
+pub mod checkpoint;
 pub mod conic;
 pub mod cost;
 pub mod csv_io;
@@ -57,6 +58,7 @@ pub mod derivative;
 pub mod diagnostics;
 pub mod entropy_search;
 pub mod error;
+mod file_io;
 pub mod identify;
 pub mod joint_step;
 pub mod metric_search;
@@ -71,6 +73,7 @@ pub mod system;
 mod test_system;
 pub mod trajectory;
 
+pub use checkpoint::CheckpointConfig;
 pub use conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
 pub use cost::{model_cost, Cost};
 pub use csv_io::{read_trajectories, write_trajectories, CsvError, WriteMode};
@@ -80,8 +83,9 @@ pub use diagnostics::{free_energy_diagnostics, FreeEnergyReport};
 pub use entropy_search::{entropy_search, EntropySearch, EntropySearchOptions};
 pub use error::{Error, Result};
 pub use identify::{
-    identify, identify_with_observer, History, Identification, IdentifyConfig, IterationRecord,
-    IterationScheme, JointStepRecord, StepOutcome, StepRecord, StopReason,
+    identify, identify_resume, identify_resume_with_observer, identify_with_observer, History,
+    Identification, IdentifyConfig, IterationRecord, IterationScheme, JointStepRecord, StepOutcome,
+    StepRecord, StopReason,
 };
 pub use joint_step::{joint_step, JointStep, TrustRegion};
 pub use metric_search::{metric_search, MetricSearch, MetricSearchOptions, SosBasis};

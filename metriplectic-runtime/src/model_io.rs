@@ -12,6 +12,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::file_io::read_capped;
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -61,6 +62,17 @@ impl ModelFile {
     }
 }
 
+/// The largest model file accepted for system `S`: 1 MiB plus 256 bytes
+/// per number in the file (pretty-printed JSON needs about 30), so hand
+/// edits and reformatting fit while a corrupt or hostile file cannot make
+/// the reader allocate without bound.
+fn model_file_limit<S: MetriplecticSystem>() -> u64 {
+    let numbers = S::entropy_coefficient_count()
+        + S::metric_coefficient_count()
+        + (S::ENTROPY_EXPONENTS.len() + S::METRIC_EXPONENTS.len() + 1) * S::DIM;
+    (1 << 20) + 256 * numbers as u64
+}
+
 fn to_owned_table(table: &[&[u32]]) -> Vec<Vec<u32>> {
     table.iter().map(|e| e.to_vec()).collect()
 }
@@ -93,6 +105,17 @@ impl<S: MetriplecticSystem> Model<S> {
     /// system or to other bases, and with the usual length/finiteness errors
     /// if the coefficients are malformed.
     pub fn from_json(json: &str) -> Result<Self> {
+        let limit = model_file_limit::<S>();
+        if json.len() as u64 > limit {
+            return Err(Error::InvalidArgument {
+                what: "model file".to_owned(),
+                reason: format!(
+                    "{} bytes is more than the {limit} a model of system `{}` can take",
+                    json.len(),
+                    S::NAME
+                ),
+            });
+        }
         let file: ModelFile = serde_json::from_str(json).map_err(|source| Error::Json {
             context: Some("model file".to_owned()),
             source,
@@ -160,12 +183,13 @@ impl<S: MetriplecticSystem> Model<S> {
     }
 
     /// Reads a model written by [`Model::save`].
+    ///
+    /// Files larger than a model of `S` can plausibly be (1 MiB plus 256
+    /// bytes per number the file holds) are refused with
+    /// [`Error::FileTooLarge`] before they are read into memory.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let json = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let json = read_capped(path, model_file_limit::<S>(), "a model file")?;
         Self::from_json(&json).map_err(|e| match e {
             Error::Json { source, .. } => Error::Json {
                 context: Some(path.display().to_string()),

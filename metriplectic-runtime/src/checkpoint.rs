@@ -1,0 +1,295 @@
+//! Checkpoints of a long identification run, and resuming from them.
+//!
+//! With [`IdentifyConfig::checkpoint`] set, [`crate::identify`] saves the
+//! run's full state every [`CheckpointConfig::every`] iterations and when it
+//! stops: the current model, the history so far, the position of the
+//! minibatch generator, the trust radius of the joint step, the failure
+//! counters, and a fingerprint of the system, the data and the
+//! configuration. [`crate::identify::identify_resume`] continues from such a
+//! file exactly where the run left off, so with the same seed the resumed
+//! run's history equals an uninterrupted run's.
+//!
+//! Files are written atomically (temporary file in the same directory,
+//! flushed to disk, then renamed), so a crash or Ctrl-C while writing leaves
+//! the previous checkpoint intact. Floating-point values round-trip exactly
+//! through the JSON (serde_json's `float_roundtrip`).
+
+use std::path::{Path, PathBuf};
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::file_io::{read_capped, write_atomic};
+use crate::identify::{History, IdentifyConfig, RunState, StopReason};
+use crate::model::Model;
+use crate::system::MetriplecticSystem;
+
+/// Where and how often [`crate::identify`] saves checkpoints.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CheckpointConfig {
+    /// The checkpoint file (replaced at every save). Its directory must exist.
+    pub path: PathBuf,
+    /// Save after every `every` iterations (and always when the run stops).
+    pub every: usize,
+}
+
+impl CheckpointConfig {
+    /// Checks that `every` is at least 1 and that `path` names a file in an
+    /// existing directory, so a typo fails before hours of computation.
+    pub fn validate(&self) -> Result<()> {
+        let invalid = |reason: String| Error::InvalidArgument {
+            what: "checkpoint".to_owned(),
+            reason,
+        };
+        if self.every == 0 {
+            return Err(invalid("`every` must be at least 1".to_owned()));
+        }
+        if self.path.file_name().is_none() {
+            return Err(invalid(format!(
+                "{} does not name a file",
+                self.path.display()
+            )));
+        }
+        let directory = match self.path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !directory.is_dir() {
+            return Err(invalid(format!(
+                "directory {} of {} does not exist",
+                directory.display(),
+                self.path.display()
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Format tag written into every checkpoint.
+const FORMAT: &str = "metriplectic-checkpoint";
+/// Version of the checkpoint layout.
+const VERSION: u32 = 1;
+
+/// What a checkpoint was taken of: a resumed run must match it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+struct Fingerprint {
+    system: String,
+    dim: usize,
+    entropy_coefficients: usize,
+    metric_coefficients: usize,
+    samples: usize,
+    /// FNV-1a over the bits of every state and derivative, as hex.
+    data_hash: String,
+}
+
+impl Fingerprint {
+    fn of<S: MetriplecticSystem>(data: &Dataset) -> Self {
+        Self {
+            system: S::NAME.to_owned(),
+            dim: S::DIM,
+            entropy_coefficients: S::entropy_coefficient_count(),
+            metric_coefficients: S::metric_coefficient_count(),
+            samples: data.len(),
+            data_hash: format!("{:016x}", data_hash(data)),
+        }
+    }
+}
+
+/// FNV-1a (64 bit) over the dimension and the bit patterns of the data: any
+/// change of any value (even one ulp) changes it with high probability.
+fn data_hash(data: &Dataset) -> u64 {
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let words = std::iter::once(data.dim() as u64)
+        .chain(data.states().iter().map(|v| v.to_bits()))
+        .chain(data.derivatives().iter().map(|v| v.to_bits()));
+    for word in words {
+        for byte in word.to_le_bytes() {
+            hash ^= u64::from(byte);
+            hash = hash.wrapping_mul(PRIME);
+        }
+    }
+    hash
+}
+
+/// The on-disk form of a checkpoint.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct CheckpointFile {
+    format: String,
+    version: u32,
+    fingerprint: Fingerprint,
+    /// The run's configuration, [`comparable`] form.
+    config: IdentifyConfig,
+    entropy: Vec<f64>,
+    metric: Vec<f64>,
+    history: History,
+    /// Word position of the ChaCha8 minibatch generator (seeded from
+    /// `config.seed`), as a decimal string: it is a u128.
+    rng_word_position: String,
+    radius: f64,
+    failed_in_a_row: usize,
+    ever_accepted: bool,
+    stopped: Option<StopReason>,
+}
+
+/// The configuration as the fingerprint compares it: the iteration cap may
+/// be raised on resume and the checkpoint settings may change.
+fn comparable(config: &IdentifyConfig) -> IdentifyConfig {
+    IdentifyConfig {
+        max_iterations: 0,
+        checkpoint: None,
+        ..config.clone()
+    }
+}
+
+/// The largest checkpoint accepted for a run of `max_iterations`: 64 MiB
+/// plus 16 KiB per iteration (a history record takes about 2 KiB).
+fn size_limit(max_iterations: usize) -> u64 {
+    (64 << 20) + (16 << 10) * max_iterations as u64
+}
+
+/// Saves `state` of a run of system `S` on `data` with `config` to `path`.
+pub(crate) fn save<S: MetriplecticSystem>(
+    path: &Path,
+    data: &Dataset,
+    config: &IdentifyConfig,
+    state: &RunState<S>,
+) -> Result<()> {
+    let file = CheckpointFile {
+        format: FORMAT.to_owned(),
+        version: VERSION,
+        fingerprint: Fingerprint::of::<S>(data),
+        config: comparable(config),
+        entropy: state.model.entropy_coefficients().to_vec(),
+        metric: state.model.metric_coefficients().to_vec(),
+        history: state.history.clone(),
+        rng_word_position: state.rng.get_word_pos().to_string(),
+        radius: state.radius,
+        failed_in_a_row: state.failed_in_a_row,
+        ever_accepted: state.ever_accepted,
+        stopped: state.stopped,
+    };
+    let json = serde_json::to_string(&file).map_err(|source| Error::Json {
+        context: Some(path.display().to_string()),
+        source,
+    })?;
+    write_atomic(path, json.as_bytes())
+}
+
+/// Loads the checkpoint at `path` and checks that it belongs to a run of
+/// system `S` on `data` with `config`.
+pub(crate) fn load<S: MetriplecticSystem>(
+    path: &Path,
+    data: &Dataset,
+    config: &IdentifyConfig,
+) -> Result<RunState<S>> {
+    let mismatch = |reason: String| Error::CheckpointMismatch {
+        path: path.to_owned(),
+        reason,
+    };
+    let limit = size_limit(config.max_iterations);
+    let text = read_capped(path, limit, "a checkpoint")?;
+    let file: CheckpointFile = serde_json::from_str(&text).map_err(|source| Error::Json {
+        context: Some(path.display().to_string()),
+        source,
+    })?;
+    if file.format != FORMAT || file.version != VERSION {
+        return Err(mismatch(format!(
+            "format `{}` version {} is not `{FORMAT}` version {VERSION}",
+            file.format, file.version
+        )));
+    }
+    let expected = Fingerprint::of::<S>(data);
+    if file.fingerprint.system != expected.system
+        || file.fingerprint.dim != expected.dim
+        || file.fingerprint.entropy_coefficients != expected.entropy_coefficients
+        || file.fingerprint.metric_coefficients != expected.metric_coefficients
+    {
+        return Err(mismatch(format!(
+            "it is of system `{}` (n = {}, {} entropy and {} metric coefficients), not `{}` (n = {}, {} and {})",
+            file.fingerprint.system,
+            file.fingerprint.dim,
+            file.fingerprint.entropy_coefficients,
+            file.fingerprint.metric_coefficients,
+            expected.system,
+            expected.dim,
+            expected.entropy_coefficients,
+            expected.metric_coefficients
+        )));
+    }
+    if file.fingerprint != expected {
+        return Err(mismatch(format!(
+            "it was taken on other data ({} samples, hash {}; these are {} samples, hash {})",
+            file.fingerprint.samples,
+            file.fingerprint.data_hash,
+            expected.samples,
+            expected.data_hash
+        )));
+    }
+    let wanted = comparable(config);
+    if file.config != wanted {
+        return Err(mismatch(format!(
+            "the configuration differs in {}",
+            differing_fields(&file.config, &wanted).join(", ")
+        )));
+    }
+    let numbered = file
+        .history
+        .iterations
+        .iter()
+        .enumerate()
+        .all(|(i, r)| r.iteration == i + 1);
+    if !numbered {
+        return Err(mismatch(
+            "its history is not numbered 1, 2, … (edited or corrupt)".to_owned(),
+        ));
+    }
+    let word_position: u128 = file.rng_word_position.parse().map_err(|e| {
+        mismatch(format!(
+            "generator position `{}` is not a number: {e}",
+            file.rng_word_position
+        ))
+    })?;
+    if !(file.radius.is_finite() && file.radius >= 0.0) {
+        return Err(mismatch(format!(
+            "trust radius {} is not finite and non-negative",
+            file.radius
+        )));
+    }
+    let model = Model::<S>::new(file.entropy, file.metric)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+    rng.set_word_pos(word_position);
+    Ok(RunState {
+        model,
+        history: file.history,
+        rng,
+        failed_in_a_row: file.failed_in_a_row,
+        ever_accepted: file.ever_accepted,
+        radius: file.radius,
+        stopped: file.stopped,
+    })
+}
+
+/// Names of the top-level configuration fields that differ.
+fn differing_fields(a: &IdentifyConfig, b: &IdentifyConfig) -> Vec<String> {
+    let (Ok(serde_json::Value::Object(a)), Ok(serde_json::Value::Object(b))) =
+        (serde_json::to_value(a), serde_json::to_value(b))
+    else {
+        return vec!["(unknown fields)".to_owned()];
+    };
+    let mut fields: Vec<String> = a
+        .iter()
+        .filter(|(key, value)| b.get(*key) != Some(*value))
+        .map(|(key, value)| {
+            let now = b.get(key).map_or("(absent)".to_owned(), |v| v.to_string());
+            format!("`{key}` (checkpoint {value}, now {now})")
+        })
+        .collect();
+    if fields.is_empty() {
+        fields.push("(values that print alike)".to_owned());
+    }
+    fields
+}

@@ -1,0 +1,144 @@
+//! Bounded reads and atomic writes of whole files (model files, checkpoints).
+
+use std::fs::File;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+
+/// Reads `path` as UTF-8 text, refusing files larger than `limit` bytes.
+///
+/// The limit is enforced while reading, not only from the metadata, so a
+/// special file (a pipe, `/dev/zero`) or a file growing under us cannot
+/// exhaust memory either.
+pub(crate) fn read_capped(path: &Path, limit: u64, what: &str) -> Result<String> {
+    let io = |source| Error::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let too_large = |size| Error::FileTooLarge {
+        path: path.to_owned(),
+        what: what.to_owned(),
+        size,
+        limit,
+    };
+    let file = File::open(path).map_err(io)?;
+    let size = file.metadata().map_err(io)?.len();
+    if size > limit {
+        return Err(too_large(size));
+    }
+    let mut bytes = Vec::with_capacity(usize::try_from(size).unwrap_or(0));
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(bytes.len() as u64));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("{what} is not UTF-8 text: {e}"),
+        ))
+    })
+}
+
+/// Replaces `path` with `bytes` atomically: a reader (or a crash) sees
+/// either the old file or the complete new one, never a truncated file.
+///
+/// The bytes go to a temporary file in the same directory (same file
+/// system, so the rename is atomic), are flushed to disk, and the temporary
+/// file is renamed over `path`.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let io = |path: &Path| {
+        let path = path.to_owned();
+        move |source| Error::Io { path, source }
+    };
+    let name = path.file_name().ok_or_else(|| Error::InvalidArgument {
+        what: "file path".to_owned(),
+        reason: format!("{} does not name a file", path.display()),
+    })?;
+    let mut temporary_name = std::ffi::OsString::from(".");
+    temporary_name.push(name);
+    temporary_name.push(format!(".tmp-{}", std::process::id()));
+    let temporary: PathBuf = path.with_file_name(temporary_name);
+    let written = (|| {
+        let mut file = File::create(&temporary)?;
+        file.write_all(bytes)?;
+        file.sync_all()
+    })();
+    if let Err(source) = written {
+        let _ = std::fs::remove_file(&temporary);
+        return Err(io(&temporary)(source));
+    }
+    if let Err(source) = std::fs::rename(&temporary, path) {
+        let _ = std::fs::remove_file(&temporary);
+        return Err(io(path)(source));
+    }
+    // Persist the rename itself (the directory entry); best effort, since
+    // not every platform can open a directory for syncing.
+    if let Some(directory) = path.parent() {
+        let directory = if directory.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            directory
+        };
+        if let Ok(directory) = File::open(directory) {
+            let _ = directory.sync_all();
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!(
+            "metriplectic-file-io-{}-{name}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn atomic_write_replaces_and_leaves_no_temporary() {
+        let dir = scratch("atomic");
+        let path = dir.join("state.json");
+        write_atomic(&path, b"first").unwrap();
+        write_atomic(&path, b"second").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "second");
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("state.json")]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn capped_read_refuses_large_and_endless_files() {
+        let dir = scratch("capped");
+        let path = dir.join("big.json");
+        std::fs::write(&path, vec![b' '; 101]).unwrap();
+        assert!(matches!(
+            read_capped(&path, 100, "a test file"),
+            Err(Error::FileTooLarge {
+                size: 101,
+                limit: 100,
+                ..
+            })
+        ));
+        assert_eq!(read_capped(&path, 101, "a test file").unwrap().len(), 101);
+        std::fs::remove_dir_all(&dir).unwrap();
+        // A character device reports size 0 and never ends.
+        let zero = Path::new("/dev/zero");
+        if zero.exists() {
+            assert!(matches!(
+                read_capped(zero, 1 << 20, "a test file"),
+                Err(Error::FileTooLarge { limit, .. }) if limit == 1 << 20
+            ));
+        }
+    }
+}

@@ -1,0 +1,277 @@
+//! Long runs: periodic atomic checkpoints, and resuming a run so that it
+//! continues exactly as if it had never stopped.
+
+mod common;
+
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+
+use common::paper_systems::*;
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{
+    identify, identify_resume, identify_with_observer, CheckpointConfig, History, IdentifyConfig,
+    IterationScheme, StopReason, TrustRegion,
+};
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "metriplectic-checkpoint-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The history with wall times zeroed: everything else must be reproducible.
+fn without_timings(history: &History) -> History {
+    let mut history = history.clone();
+    for record in &mut history.iterations {
+        let joint = record.joint.as_mut().map(|j| &mut j.step);
+        for step in [Some(&mut record.metric), Some(&mut record.entropy), joint]
+            .into_iter()
+            .flatten()
+        {
+            step.report.assembly_seconds = 0.0;
+            step.report.solver_seconds = 0.0;
+        }
+    }
+    history
+}
+
+/// Algorithm 2 with joint steps (so the trust radius and the minibatch
+/// generator both carry state across iterations) on the 2-D paper system.
+fn config(checkpoint: Option<&Path>) -> IdentifyConfig {
+    IdentifyConfig {
+        batch_size: Some(25),
+        max_iterations: 6,
+        tolerance: 0.0,
+        seed: 42,
+        initial_entropy: Some(perturbed_reference_entropy::<Linear2d>(0.5, 42)),
+        scheme: IterationScheme::AlternatingThenJoint(TrustRegion::default()),
+        checkpoint: checkpoint.map(|path| CheckpointConfig {
+            path: path.to_owned(),
+            every: 2,
+        }),
+        ..IdentifyConfig::default()
+    }
+}
+
+/// Number of iterations saved in the checkpoint at `path`.
+fn saved_iterations(path: &Path) -> Option<usize> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let value: serde_json::Value = serde_json::from_str(&text).ok()?;
+    value["history"]["iterations"].as_array().map(Vec::len)
+}
+
+#[test]
+fn interrupted_and_resumed_run_equals_an_uninterrupted_run() {
+    let dir = scratch("resume");
+    let data = linear2d_data(120, 7);
+    let uninterrupted = identify::<Linear2d>(&data, &config(None)).unwrap();
+    assert_eq!(uninterrupted.stop_reason, StopReason::MaxIterations);
+    assert_eq!(uninterrupted.history.iterations.len(), 6);
+
+    // Interrupt after iteration 3; on the way, keep a copy of the periodic
+    // checkpoint of iteration 2 (the observer runs before iteration 3's save).
+    let path = dir.join("checkpoint.json");
+    let periodic = dir.join("after-2.json");
+    let mut seen_in_file = Vec::new();
+    let interrupted =
+        identify_with_observer::<Linear2d, _>(&data, &config(Some(&path)), |record, _| {
+            seen_in_file.push(saved_iterations(&path));
+            if record.iteration == 3 {
+                std::fs::copy(&path, &periodic).unwrap();
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        })
+        .unwrap();
+    assert_eq!(interrupted.stop_reason, StopReason::Interrupted);
+    assert_eq!(seen_in_file, vec![None, None, Some(2)]);
+    // The stop itself saves: the file now holds all three iterations.
+    assert_eq!(saved_iterations(&path), Some(3));
+    assert_eq!(saved_iterations(&periodic), Some(2));
+    // Only the checkpoint and our copy: no temporary file is left behind.
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
+
+    for (name, from) in [("stop", &path), ("periodic", &periodic)] {
+        let resumed = identify_resume::<Linear2d>(from, &data, &config(None)).unwrap();
+        assert_eq!(resumed.stop_reason, StopReason::MaxIterations, "{name}");
+        assert_eq!(
+            without_timings(&resumed.history),
+            without_timings(&uninterrupted.history),
+            "resumed from the {name} checkpoint"
+        );
+        // Bit for bit: same arithmetic, exact JSON round trip.
+        let bits = |m: &Model<Linear2d>| -> Vec<u64> {
+            m.entropy_coefficients()
+                .iter()
+                .chain(m.metric_coefficients())
+                .map(|v| v.to_bits())
+                .collect()
+        };
+        assert_eq!(bits(&resumed.model), bits(&uninterrupted.model), "{name}");
+    }
+
+    // The iteration cap may be raised to extend a finished run.
+    let extended = identify_resume::<Linear2d>(
+        &path,
+        &data,
+        &IdentifyConfig {
+            max_iterations: 4,
+            ..config(None)
+        },
+    )
+    .unwrap();
+    assert_eq!(extended.history.iterations.len(), 4);
+    assert_eq!(
+        without_timings(&extended.history).iterations[..],
+        without_timings(&uninterrupted.history).iterations[..4]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn resuming_with_other_data_configuration_or_system_is_refused() {
+    let dir = scratch("mismatch");
+    let data = linear2d_data(60, 8);
+    let path = dir.join("checkpoint.json");
+    let short = IdentifyConfig {
+        max_iterations: 1,
+        ..config(Some(&path))
+    };
+    identify::<Linear2d>(&data, &short).unwrap();
+
+    // One value changed by one ulp is other data.
+    let mut states = data.states().to_vec();
+    states[17] = f64::from_bits(states[17].to_bits() + 1);
+    let nudged = Dataset::from_flat(2, states, data.derivatives().to_vec()).unwrap();
+    let err = identify_resume::<Linear2d>(&path, &nudged, &config(None)).unwrap_err();
+    assert!(
+        matches!(err, Error::CheckpointMismatch { ref reason, .. } if reason.contains("other data")),
+        "{err}"
+    );
+    let fewer = data.select(&(0..59).collect::<Vec<_>>()).unwrap();
+    let err = identify_resume::<Linear2d>(&path, &fewer, &config(None)).unwrap_err();
+    assert!(matches!(err, Error::CheckpointMismatch { .. }), "{err}");
+
+    let other_eta = IdentifyConfig {
+        eta: 25.0,
+        ..config(None)
+    };
+    let err = identify_resume::<Linear2d>(&path, &data, &other_eta).unwrap_err();
+    assert!(
+        matches!(err, Error::CheckpointMismatch { ref reason, .. } if reason.contains("`eta`")),
+        "{err}"
+    );
+    let other_seed = IdentifyConfig {
+        seed: 43,
+        ..config(None)
+    };
+    let err = identify_resume::<Linear2d>(&path, &data, &other_seed).unwrap_err();
+    assert!(
+        matches!(err, Error::CheckpointMismatch { ref reason, .. } if reason.contains("`seed`")),
+        "{err}"
+    );
+
+    let body = rigid_body_data(60, 8);
+    let body_config = IdentifyConfig {
+        initial_entropy: None,
+        ..config(None)
+    };
+    let err = identify_resume::<RigidBody>(&path, &body, &body_config).unwrap_err();
+    assert!(
+        matches!(err, Error::CheckpointMismatch { ref reason, .. } if reason.contains("Linear2d")),
+        "{err}"
+    );
+
+    // A truncated checkpoint (a crash mid-write cannot produce one, since
+    // writes are atomic, but a copy can) is a JSON error, not a panic.
+    let text = std::fs::read_to_string(&path).unwrap();
+    let truncated = dir.join("truncated.json");
+    std::fs::write(&truncated, &text[..text.len() / 2]).unwrap();
+    let err = identify_resume::<Linear2d>(&truncated, &data, &config(None)).unwrap_err();
+    assert!(matches!(err, Error::Json { .. }), "{err}");
+
+    // An absurdly large file is refused before it is read (sparse: no disk).
+    let huge = dir.join("huge.json");
+    std::fs::File::create(&huge)
+        .unwrap()
+        .set_len(10 << 30)
+        .unwrap();
+    let err = identify_resume::<Linear2d>(&huge, &data, &config(None)).unwrap_err();
+    assert!(matches!(err, Error::FileTooLarge { .. }), "{err}");
+
+    let err =
+        identify_resume::<Linear2d>(dir.join("missing.json"), &data, &config(None)).unwrap_err();
+    assert!(matches!(err, Error::Io { .. }), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn checkpoint_settings_are_validated_before_any_work() {
+    let data = linear2d_data(10, 9);
+    for checkpoint in [
+        CheckpointConfig {
+            path: std::env::temp_dir().join("no-such-directory-metriplectic/c.json"),
+            every: 1,
+        },
+        CheckpointConfig {
+            path: std::env::temp_dir().join("c.json"),
+            every: 0,
+        },
+        CheckpointConfig {
+            path: PathBuf::from("/"),
+            every: 1,
+        },
+    ] {
+        let config = IdentifyConfig {
+            checkpoint: Some(checkpoint.clone()),
+            ..IdentifyConfig::default()
+        };
+        let err = identify::<Linear2d>(&data, &config).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidArgument { ref what, .. } if what == "checkpoint"),
+            "{checkpoint:?}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_converged_checkpoint_resumes_as_converged_without_iterating() {
+    let dir = scratch("converged");
+    let data = linear2d_data(30, 10);
+    let path = dir.join("checkpoint.json");
+    // From the truth the first iteration already meets a loose tolerance.
+    let config = IdentifyConfig {
+        tolerance: 1e-6,
+        max_iterations: 5,
+        initial_entropy: Some(Linear2d::REFERENCE_ENTROPY.unwrap().to_vec()),
+        checkpoint: Some(CheckpointConfig {
+            path: path.clone(),
+            every: 100,
+        }),
+        ..IdentifyConfig::default()
+    };
+    let first = identify::<Linear2d>(&data, &config).unwrap();
+    assert_eq!(first.stop_reason, StopReason::Converged);
+    let mut calls = 0;
+    let resumed = metriplectic_runtime::identify_resume_with_observer::<Linear2d, _>(
+        &path,
+        &data,
+        &config,
+        |_, _| {
+            calls += 1;
+            ControlFlow::Continue(())
+        },
+    )
+    .unwrap();
+    assert_eq!(calls, 0);
+    assert_eq!(resumed.stop_reason, StopReason::Converged);
+    assert_eq!(resumed.history, first.history);
+    assert_eq!(resumed.model, first.model);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
