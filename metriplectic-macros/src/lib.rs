@@ -15,6 +15,8 @@ mod emit;
 mod monomials;
 mod parse;
 mod polynomial;
+#[cfg(test)]
+mod robustness_tests;
 
 /// Declares a generalized metriplectic system
 /// ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)) with known Poisson tensor Π and
@@ -92,6 +94,7 @@ pub fn metriplectic(input: TokenStream) -> TokenStream {
 /// Every failure is a spanned [`syn::Error`]; this function never panics on
 /// any input.
 fn expand(input: TokenStream2) -> syn::Result<TokenStream2> {
+    parse::check_input_bounds(&input)?;
     let def: parse::SystemDef = syn::parse2(input)?;
     let system = analysis::analyse(def)?;
     Ok(emit::emit(&system))
