@@ -12,12 +12,15 @@ use std::fs;
 use std::io::IsTerminal;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::OnceLock;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use metriplectic_runtime::conic::SolveStatus;
 use metriplectic_runtime::identify::{
-    identify_with_observer, IdentifyConfig, IterationScheme, StopReason,
+    identify_resume_with_observer, identify_with_observer, CheckpointConfig, IdentifyConfig,
+    IterationRecord, IterationScheme, StopReason,
 };
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::simulate::{simulate, OutputTimes, Simulation, SimulationOptions};
@@ -70,6 +73,13 @@ pub struct Options {
     /// No progress bar and no summary on stdout.
     #[arg(long)]
     pub quiet: bool,
+    /// Continue the run saved in `<out>/checkpoint.json` (same seed and
+    /// options) instead of starting afresh.
+    #[arg(long)]
+    pub resume: bool,
+    /// Save `<out>/checkpoint.json` every this many iterations (and on stop).
+    #[arg(long, default_value_t = 10)]
+    pub checkpoint_every: usize,
 }
 
 /// Which iteration scheme the identifier runs (see [`IterationScheme`]).
@@ -185,6 +195,38 @@ pub enum ReproductionError {
     /// An option is out of range.
     #[error("invalid option: {0}")]
     Option(String),
+    /// The run was stopped (Ctrl-C) after an iteration; its checkpoint,
+    /// current model and history were written.
+    #[error("interrupted after {iterations} iteration(s); the current model and history are in {}, continue with --resume", out.display())]
+    Interrupted {
+        /// Iterations completed (including those before a resume).
+        iterations: usize,
+        /// The output directory.
+        out: PathBuf,
+    },
+}
+
+/// Set by the Ctrl-C handler [`run`] installs; the identifier's observer
+/// checks it after every iteration.
+static STOP_REQUESTED: AtomicBool = AtomicBool::new(false);
+
+/// Asks a running [`run`] to stop after its current iteration, as Ctrl-C does.
+pub fn request_stop() {
+    STOP_REQUESTED.store(true, Ordering::SeqCst);
+}
+
+/// Installs the Ctrl-C handler once per process; a failure to install it
+/// (e.g. another handler exists) only costs the clean stop, so it is reported
+/// and the run goes on.
+fn install_ctrlc_handler(quiet: bool) {
+    static INSTALLED: OnceLock<()> = OnceLock::new();
+    INSTALLED.get_or_init(|| {
+        if let Err(err) = ctrlc::set_handler(request_stop) {
+            if !quiet {
+                eprintln!("warning: Ctrl-C will not stop cleanly: {err}");
+            }
+        }
+    });
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReproductionError + '_ {
@@ -195,16 +237,42 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ReproductionError + '
 }
 
 /// Runs the reproduction of `experiment` for system `S` and returns its summary.
+///
+/// Ctrl-C (or [`request_stop`]) stops the identification after the current
+/// iteration: the checkpoint, the current model (`model.json`) and the
+/// history are written, and the result is [`ReproductionError::Interrupted`].
 pub fn run<S: MetriplecticSystem>(
     experiment: &Experiment,
     options: &Options,
+) -> Result<Summary, ReproductionError> {
+    install_ctrlc_handler(options.quiet);
+    STOP_REQUESTED.store(false, Ordering::SeqCst);
+    run_until::<S>(experiment, options, &STOP_REQUESTED)
+}
+
+/// [`run`] without a signal handler: the identification stops after the
+/// iteration during which `stop` became `true`.
+pub fn run_until<S: MetriplecticSystem>(
+    experiment: &Experiment,
+    options: &Options,
+    stop: &AtomicBool,
 ) -> Result<Summary, ReproductionError> {
     let started = Instant::now();
     let out = options
         .out
         .clone()
         .unwrap_or_else(|| Path::new("target").join("paper").join(experiment.name));
-    prepare_output_dir(&out, options.force)?;
+    let checkpoint = out.join("checkpoint.json");
+    if options.resume {
+        if !checkpoint.is_file() {
+            return Err(ReproductionError::Option(format!(
+                "--resume: there is no {} to continue from",
+                checkpoint.display()
+            )));
+        }
+    } else {
+        prepare_output_dir(&out, options.force)?;
+    }
 
     let iterations = options.iterations.unwrap_or(experiment.iterations);
     let truth = Model::<S>::reference()?;
@@ -233,10 +301,14 @@ pub fn run<S: MetriplecticSystem>(
             options.seed,
         )?),
         scheme: options.scheme.to_config(),
+        checkpoint: Some(CheckpointConfig {
+            path: checkpoint.clone(),
+            every: options.checkpoint_every,
+        }),
         ..IdentifyConfig::default()
     };
     let progress = progress_bar(options, iterations);
-    let identification = identify_with_observer::<S, _>(train, &config, |record, _| {
+    let observer = |record: &IterationRecord, _: &Model<S>| {
         progress.set_position(record.iteration as u64);
         progress.set_message(format!(
             "loss: metric {:.3e}  entropy {:.3e}  after iteration {:.3e}",
@@ -244,11 +316,27 @@ pub fn run<S: MetriplecticSystem>(
             record.entropy.cost_after.per_component,
             record.cost_after().per_component
         ));
-        ControlFlow::Continue(())
-    })?;
+        if stop.load(Ordering::SeqCst) {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    };
+    let identification = if options.resume {
+        identify_resume_with_observer::<S, _>(&checkpoint, train, &config, observer)?
+    } else {
+        identify_with_observer::<S, _>(train, &config, observer)?
+    };
     progress.finish_and_clear();
     let model = &identification.model;
     let history = &identification.history;
+    if identification.stop_reason == StopReason::Interrupted {
+        write_model_and_history(&out, model, history)?;
+        return Err(ReproductionError::Interrupted {
+            iterations: history.iterations.len(),
+            out,
+        });
+    }
 
     let (heldout_relative_error, heldout_mean_abs_residual) =
         held_out_errors(model, &truth, held_out)?;
@@ -442,13 +530,23 @@ fn write_outputs<S: MetriplecticSystem>(
     simulations: &[Simulation],
     experiment: &Experiment,
 ) -> Result<(), ReproductionError> {
+    write_model_and_history(out, model, history)?;
+    crate::figures::write_all(out, history, simulations, experiment, S::STATE_NAMES)
+}
+
+/// `model.json` and `history.csv`.
+fn write_model_and_history<S: MetriplecticSystem>(
+    out: &Path,
+    model: &Model<S>,
+    history: &metriplectic_runtime::identify::History,
+) -> Result<(), ReproductionError> {
     let path = out.join("history.csv");
     let file = fs::File::create(&path).map_err(io_error(&path))?;
     history
         .write_csv(std::io::BufWriter::new(file))
         .map_err(io_error(&path))?;
     model.save(out.join("model.json"), true)?;
-    crate::figures::write_all(out, history, simulations, experiment, S::STATE_NAMES)
+    Ok(())
 }
 
 fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), ReproductionError> {
@@ -577,7 +675,7 @@ fn human_summary<S: MetriplecticSystem>(
     );
     let _ = write!(
         text,
-        "wrote trajectories.png/.svg, loss.png, free_energy.png, history.csv, model.json, summary.json to {}",
+        "wrote trajectories.png/.svg, loss.png, free_energy.png, history.csv, model.json, checkpoint.json, summary.json to {}",
         out.display()
     );
     text

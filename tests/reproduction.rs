@@ -34,6 +34,8 @@ fn reduced_options(out: &Path, batch_size: usize, iterations: usize) -> Options 
         samples_per_trajectory: 30,
         scheme: Scheme::Joint,
         quiet: true,
+        resume: false,
+        checkpoint_every: 10,
     }
 }
 

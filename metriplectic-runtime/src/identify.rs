@@ -872,6 +872,45 @@ mod tests {
     }
 
     #[test]
+    fn solver_failures_after_progress_return_the_kept_model() {
+        // A run that has accepted steps (here: resumed from such a state)
+        // and then only sees failing solves stops with SolverFailures and
+        // returns the model it had, not an error.
+        let data = reference_data(20, 17);
+        let config = IdentifyConfig {
+            solver: SolverSettings {
+                max_iter: 1,
+                ..SolverSettings::default()
+            },
+            max_failed_iterations: 2,
+            ..IdentifyConfig::default()
+        };
+        // Off the truth, so the data are not already fitted (cost > 0).
+        let reference = Model::<Quadratic2d>::reference().unwrap();
+        let entropy = reference.entropy_coefficients().iter().map(|c| c + 0.1);
+        let kept =
+            Model::<Quadratic2d>::new(entropy.collect(), reference.metric_coefficients().to_vec())
+                .unwrap();
+        let state = RunState {
+            model: kept.clone(),
+            history: History::default(),
+            rng: ChaCha8Rng::seed_from_u64(0),
+            failed_in_a_row: 0,
+            ever_accepted: true,
+            radius: 0.0,
+            stopped: None,
+        };
+        let result = run(&data, &config, state, |_, _| ControlFlow::Continue(())).unwrap();
+        assert_eq!(result.stop_reason, StopReason::SolverFailures);
+        assert_eq!(result.history.iterations.len(), 2);
+        assert!(result.history.iterations.iter().all(|r| {
+            r.metric.outcome == StepOutcome::RejectedFailed
+                && r.entropy.outcome == StepOutcome::RejectedFailed
+        }));
+        assert_eq!(result.model, kept);
+    }
+
+    #[test]
     fn failed_solves_never_replace_the_model() {
         // One interior-point iteration cannot solve anything: every step
         // fails, the model stays at its start, and with nothing ever

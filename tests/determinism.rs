@@ -1,0 +1,91 @@
+//! Equal seed, data and configuration give an equal history (wall times
+//! aside) — within a process and across OpenBLAS thread counts, since
+//! Clarabel's PSD cone calls into OpenBLAS, which may thread.
+
+mod common;
+
+use common::paper_systems::*;
+use metriplectic_runtime::{identify, History, IdentifyConfig, IterationScheme, TrustRegion};
+
+fn without_timings(history: &History) -> History {
+    let mut history = history.clone();
+    for record in &mut history.iterations {
+        let joint = record.joint.as_mut().map(|j| &mut j.step);
+        for step in [Some(&mut record.metric), Some(&mut record.entropy), joint]
+            .into_iter()
+            .flatten()
+        {
+            step.report.assembly_seconds = 0.0;
+            step.report.solver_seconds = 0.0;
+        }
+    }
+    history
+}
+
+/// The run compared: Algorithm 2 with joint steps on the SO(3) system (the
+/// larger SDP blocks of the two paper systems).
+fn run_once() -> String {
+    let data = rigid_body_data(150, 51);
+    let config = IdentifyConfig {
+        batch_size: Some(40),
+        max_iterations: 3,
+        tolerance: 0.0,
+        seed: 9,
+        initial_entropy: Some(perturbed_reference_entropy::<RigidBody>(0.3, 9)),
+        scheme: IterationScheme::AlternatingThenJoint(TrustRegion::default()),
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<RigidBody>(&data, &config).unwrap();
+    let history = serde_json::to_string(&without_timings(&result.history)).unwrap();
+    let bits: Vec<u64> = result
+        .model
+        .entropy_coefficients()
+        .iter()
+        .chain(result.model.metric_coefficients())
+        .map(|v| v.to_bits())
+        .collect();
+    format!("{history}\n{bits:?}\n{:?}", result.stop_reason)
+}
+
+#[test]
+fn equal_inputs_give_equal_histories_in_one_process() {
+    assert_eq!(run_once(), run_once());
+}
+
+/// Child mode of the test below: runs once and writes the result.
+#[test]
+#[ignore = "run by equal_inputs_give_equal_histories_across_blas_thread_counts"]
+fn determinism_child() {
+    if let Ok(path) = std::env::var("METRIPLECTIC_DETERMINISM_OUT") {
+        std::fs::write(path, run_once()).unwrap();
+    }
+}
+
+#[test]
+fn equal_inputs_give_equal_histories_across_blas_thread_counts() {
+    let exe = std::env::current_exe().unwrap();
+    let dir = std::env::temp_dir().join(format!("metriplectic-determinism-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = dir.join(format!("threads-{threads}.txt"));
+        let status = std::process::Command::new(&exe)
+            .args([
+                "--exact",
+                "determinism_child",
+                "--ignored",
+                "--test-threads=1",
+            ])
+            .env("OPENBLAS_NUM_THREADS", threads)
+            .env("OMP_NUM_THREADS", threads)
+            .env("METRIPLECTIC_DETERMINISM_OUT", &out)
+            .status()
+            .unwrap();
+        assert!(status.success(), "child with {threads} BLAS threads failed");
+        outputs.push(std::fs::read_to_string(&out).unwrap());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(outputs[0].len() > 1000, "child wrote too little");
+    assert_eq!(outputs[0], outputs[1], "1 vs 2 OpenBLAS threads");
+    assert_eq!(outputs[0], run_once(), "child vs this process");
+}

@@ -1,0 +1,107 @@
+//! Ctrl-C in the paper reproductions: the run stops after the current
+//! iteration, keeps its checkpoint and writes the current model and history;
+//! `--resume` continues it to the same result as an uninterrupted run.
+//! The signal is simulated with the stop flag the Ctrl-C handler sets.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use metriplectic::reproduction::{run_until, Options, ReproductionError, Scheme};
+use metriplectic_runtime::prelude::*;
+
+#[allow(dead_code)]
+#[path = "../examples/linear_2d.rs"]
+mod linear_2d;
+
+fn output_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn tiny_options(out: &Path) -> Options {
+    Options {
+        seed: 5,
+        batch_size: 40,
+        iterations: Some(3),
+        tolerance: 0.0,
+        out: Some(out.to_owned()),
+        force: false,
+        plot_trajectories: 2,
+        train_trajectories: 8,
+        heldout_trajectories: 2,
+        samples_per_trajectory: 15,
+        scheme: Scheme::Joint,
+        quiet: true,
+        resume: false,
+        checkpoint_every: 2,
+    }
+}
+
+#[test]
+fn interrupted_reproduction_keeps_its_state_and_resumes_to_the_same_model() {
+    use linear_2d::{experiment, Oscillator};
+    let experiment = experiment();
+
+    let straight = output_dir("interrupt-straight");
+    let summary = run_until::<Oscillator>(
+        &experiment,
+        &tiny_options(&straight),
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert_eq!(summary.iterations, 3);
+
+    // "Ctrl-C" before the first iteration ends: it stops after iteration 1.
+    let out = output_dir("interrupt-resumed");
+    let err = run_until::<Oscillator>(&experiment, &tiny_options(&out), &AtomicBool::new(true))
+        .unwrap_err();
+    assert!(
+        matches!(err, ReproductionError::Interrupted { iterations: 1, .. }),
+        "{err}"
+    );
+    let interrupted_model = Model::<Oscillator>::load(out.join("model.json")).unwrap();
+    assert!(interrupted_model
+        .entropy_coefficients()
+        .iter()
+        .all(|c| c.is_finite()));
+    let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    assert_eq!(history.lines().count(), 2, "header and one iteration");
+    assert!(out.join("checkpoint.json").is_file());
+    assert!(!out.join("summary.json").exists());
+
+    // A fresh run refuses the non-empty directory; --resume continues it.
+    let err = run_until::<Oscillator>(&experiment, &tiny_options(&out), &AtomicBool::new(false))
+        .unwrap_err();
+    assert!(matches!(err, ReproductionError::OutputNotEmpty(_)), "{err}");
+    let resumed = run_until::<Oscillator>(
+        &experiment,
+        &Options {
+            resume: true,
+            ..tiny_options(&out)
+        },
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert_eq!(resumed.iterations, 3);
+    assert_eq!(resumed.final_entropy_cost, summary.final_entropy_cost);
+    assert_eq!(
+        resumed.heldout_relative_error,
+        summary.heldout_relative_error
+    );
+    let read = |dir: &Path| std::fs::read_to_string(dir.join("model.json")).unwrap();
+    assert_eq!(read(&out), read(&straight), "same model, bit for bit");
+
+    // --resume without a checkpoint is an option error, not a fresh run.
+    let empty = output_dir("interrupt-nothing");
+    let err = run_until::<Oscillator>(
+        &experiment,
+        &Options {
+            resume: true,
+            ..tiny_options(&empty)
+        },
+        &AtomicBool::new(false),
+    )
+    .unwrap_err();
+    assert!(matches!(err, ReproductionError::Option(_)), "{err}");
+}
