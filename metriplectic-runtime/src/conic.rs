@@ -283,6 +283,32 @@ impl Regression {
         }
     }
 
+    /// The rows of `self` followed by those of `below` (same width).
+    pub fn stacked(&self, below: &Regression) -> Regression {
+        debug_assert_eq!(self.width, below.width);
+        let mut rows = Vec::with_capacity(self.rows.len() + below.rows.len());
+        rows.extend_from_slice(&self.rows);
+        rows.extend_from_slice(&below.rows);
+        let mut target = Vec::with_capacity(self.len() + below.len());
+        target.extend_from_slice(&self.target);
+        target.extend_from_slice(&below.target);
+        Regression {
+            width: self.width,
+            rows,
+            target,
+        }
+    }
+
+    /// Σᵢ |aᵢₖ| for every column k: the largest rate at which the L1
+    /// objective can change along coefficient k.
+    pub fn column_l1_norms(&self) -> Vec<f64> {
+        let mut norms = vec![0.0; self.width];
+        for row in self.rows.chunks_exact(self.width.max(1)) {
+            norms.iter_mut().zip(row).for_each(|(n, a)| *n += a.abs());
+        }
+        norms
+    }
+
     /// Σᵢ |tᵢ − aᵢᵀ c|: the L1 objective at coefficients `c` (`width` long).
     pub fn l1_residual(&self, c: &[f64]) -> f64 {
         self.rows
@@ -765,6 +791,26 @@ mod tests {
         assert_eq!(dense(&problem.a), expected);
         assert_eq!(problem.b, vec![4.0, 0.0, 0.0]);
         assert_eq!(problem.cones.len(), 2);
+    }
+
+    #[test]
+    fn stacked_rows_and_column_norms() {
+        let top = Regression {
+            width: 2,
+            rows: vec![1.0, -2.0],
+            target: vec![3.0],
+        };
+        let below = Regression {
+            width: 2,
+            rows: vec![0.0, 4.0, -5.0, 0.5],
+            target: vec![6.0, 7.0],
+        };
+        let both = top.stacked(&below);
+        assert_eq!(both.rows, vec![1.0, -2.0, 0.0, 4.0, -5.0, 0.5]);
+        assert_eq!(both.target, vec![3.0, 6.0, 7.0]);
+        assert_eq!(both.column_l1_norms(), vec![6.0, 6.5]);
+        // Σ|t − A c| at c = (1, 1): |3 + 1| + |6 − 4| + |7 + 4.5|.
+        assert_eq!(both.l1_residual(&[1.0, 1.0]), 17.5);
     }
 
     #[test]
