@@ -6,36 +6,9 @@ use metriplectic_runtime::system::metric_pair_index;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-metriplectic! {
-    /// The linear 2-D example: canonical Π, figure-eight free energy.
-    pub struct Linear2d;
-    state (q, p);
-    poisson = [[0, 1], [-1, 0]];
-    hamiltonian = 0.5 * p^2 + 0.5 * q^2;
-    entropy degree 8;
-    metric degree 2;
-    reference {
-        entropy = -0.5 * (p^2 + 4*q^4 - 4*q^2)^2 - (0.5*p^2 + 0.5*q^2);
-        metric = [[1, 0], [0, 1]];
-    }
-}
+mod common;
 
-metriplectic! {
-    /// The SO(3) rigid body: Lie–Poisson Π(p) = p̂, H = ½ pᵀ J⁻¹ p.
-    pub struct RigidBody;
-    state (px, py, pz);
-    const j1 = 0.1;
-    const j2 = 0.2;
-    const j3 = 0.15;
-    poisson = [[0, -pz, py], [pz, 0, -px], [-py, px, 0]];
-    hamiltonian = 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
-    entropy degree 6;
-    metric degree 2;
-    reference {
-        entropy = -0.5 * (px^2 + py^2 + pz^2 - 1)^2 - 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
-        metric = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
-    }
-}
+use common::paper_systems::{Linear2d, RigidBody};
 
 const POINTS: usize = 200;
 

@@ -25,7 +25,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::error::{Error, Result};
+use crate::error::{invalid, Error, Result};
 use crate::trajectory::Trajectory;
 
 /// How to estimate ẋ from sampled states.
@@ -127,7 +127,7 @@ pub fn differentiate(times: &[f64], values: &[f64], method: &DerivativeMethod) -
         });
     }
     crate::error::check_finite("values to differentiate", values)?;
-    check_times(times)?;
+    crate::error::check_strictly_increasing("times", times)?;
     method.validate(times.len())?;
     (0..times.len())
         .map(|i| {
@@ -249,29 +249,6 @@ fn least_squares_first_derivative(z: f64, points: &[f64], degree: usize) -> Resu
         .map_err(|reason| invalid("Savitzky–Golay fit", reason.to_owned()))?;
     // p(u) = Σ cₖ uᵏ with u = (t − z)/scale, so p'(z) = c₁ / scale.
     Ok(pinv.row(1).iter().map(|w| w / scale).collect())
-}
-
-fn check_times(times: &[f64]) -> Result<()> {
-    crate::error::check_finite("times", times)?;
-    if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(invalid(
-            "times",
-            format!(
-                "time {} ({}) does not come after time {k} ({}): times must strictly increase",
-                k + 1,
-                times[k + 1],
-                times[k]
-            ),
-        ));
-    }
-    Ok(())
-}
-
-fn invalid(what: &str, reason: String) -> Error {
-    Error::InvalidArgument {
-        what: what.to_owned(),
-        reason,
-    }
 }
 
 #[cfg(test)]

@@ -154,3 +154,34 @@ pub(crate) fn check_finite(what: &str, values: &[f64]) -> Result<()> {
         }),
     }
 }
+
+/// An [`Error::InvalidArgument`] for parameter `what`.
+pub(crate) fn invalid(what: &str, reason: impl Into<String>) -> Error {
+    Error::InvalidArgument {
+        what: what.to_owned(),
+        reason: reason.into(),
+    }
+}
+
+/// Checks that `times` are finite and strictly increasing, naming the first
+/// offending entry.
+pub(crate) fn check_strictly_increasing(what: &str, times: &[f64]) -> Result<()> {
+    if let Some(k) = times.iter().position(|t| !t.is_finite()) {
+        return Err(invalid(
+            what,
+            format!("entry {k} is {}; times must be finite", times[k]),
+        ));
+    }
+    if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(invalid(
+            what,
+            format!(
+                "entry {} ({}) does not come after entry {k} ({}): times must strictly increase",
+                k + 1,
+                times[k + 1],
+                times[k]
+            ),
+        ));
+    }
+    Ok(())
+}

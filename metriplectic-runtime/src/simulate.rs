@@ -31,7 +31,7 @@ use std::cell::Cell;
 use ode_solvers::dop_shared::{IntegrationError, OutputType, System};
 use ode_solvers::{continuous_output_model::ContinuousOutputModel, DVector, Dopri5};
 
-use crate::error::{Error, Result};
+use crate::error::{invalid, Result};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 use crate::trajectory::Trajectory;
@@ -645,17 +645,7 @@ fn validate(
                     format!("time {k} ({}) is not within [{t0}, {t_end}]", times[k]),
                 ));
             }
-            if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
-                return Err(invalid(
-                    "output times",
-                    format!(
-                        "time {} ({}) does not come after time {k} ({}): they must strictly increase",
-                        k + 1,
-                        times[k + 1],
-                        times[k]
-                    ),
-                ));
-            }
+            crate::error::check_strictly_increasing("output times", times)?;
         }
     }
     Ok(())
@@ -712,16 +702,10 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-fn invalid(what: &str, reason: String) -> Error {
-    Error::InvalidArgument {
-        what: what.to_owned(),
-        reason,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::Error;
 
     #[test]
     fn exponential_decay_at_requested_tolerance() {

@@ -29,7 +29,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
 use crate::dataset::Dataset;
-use crate::error::{Error, Result};
+use crate::error::{invalid, Result};
 use crate::model::Model;
 use crate::simulate::{simulate, IntegratorOptions, OutputTimes, SimulationOptions};
 use crate::system::MetriplecticSystem;
@@ -477,11 +477,4 @@ fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
         }
     }
     Ok(())
-}
-
-fn invalid(what: &str, reason: String) -> Error {
-    Error::InvalidArgument {
-        what: what.to_owned(),
-        reason,
-    }
 }

@@ -8,7 +8,7 @@
 //! derivatives into identification data.
 
 use crate::dataset::Dataset;
-use crate::error::{Error, Result};
+use crate::error::{invalid, Error, Result};
 
 /// States sampled at strictly increasing times, with named state variables
 /// and optional time derivatives.
@@ -90,7 +90,7 @@ impl Trajectory {
                 ));
             }
         }
-        check_times(&times)?;
+        crate::error::check_strictly_increasing("trajectory times", &times)?;
         Ok(Self {
             id: None,
             names,
@@ -249,34 +249,6 @@ pub fn dataset_from_trajectories(trajectories: &[Trajectory]) -> Result<Dataset>
         data.extend(&traj.to_dataset()?)?;
     }
     Ok(data)
-}
-
-fn check_times(times: &[f64]) -> Result<()> {
-    if let Some(k) = times.iter().position(|t| !t.is_finite()) {
-        return Err(invalid(
-            "trajectory times",
-            format!("sample {k}: non-finite time {}", times[k]),
-        ));
-    }
-    if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(invalid(
-            "trajectory times",
-            format!(
-                "sample {} has time {} after time {} of sample {k}: times must strictly increase",
-                k + 1,
-                times[k + 1],
-                times[k]
-            ),
-        ));
-    }
-    Ok(())
-}
-
-fn invalid(what: &str, reason: String) -> Error {
-    Error::InvalidArgument {
-        what: what.to_owned(),
-        reason,
-    }
 }
 
 #[cfg(test)]
