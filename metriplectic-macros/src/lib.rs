@@ -7,13 +7,14 @@
 //! spans), `analysis` (syntax tree → exact polynomials, every check),
 //! `monomials` (graded-lex bases and SOS tables), `emit` (readable Rust).
 
+use pipeline::expand;
 use proc_macro::TokenStream;
-use proc_macro2::TokenStream as TokenStream2;
 
 mod analysis;
 mod emit;
 mod monomials;
 mod parse;
+mod pipeline;
 mod polynomial;
 #[cfg(test)]
 mod robustness_tests;
@@ -87,17 +88,6 @@ pub fn metriplectic(input: TokenStream) -> TokenStream {
         Ok(tokens) => tokens.into(),
         Err(error) => error.to_compile_error().into(),
     }
-}
-
-/// Parses, checks and generates code for one `metriplectic!` invocation.
-///
-/// Every failure is a spanned [`syn::Error`]; this function never panics on
-/// any input.
-fn expand(input: TokenStream2) -> syn::Result<TokenStream2> {
-    parse::check_input_bounds(&input)?;
-    let def: parse::SystemDef = syn::parse2(input)?;
-    let system = analysis::analyse(def)?;
-    Ok(emit::emit(&system))
 }
 
 #[cfg(test)]
