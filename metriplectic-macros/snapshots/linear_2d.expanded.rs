@@ -18,7 +18,8 @@ impl Oscillator {
     pub const MONOMIAL_COUNT: usize = 45;
     /// The non-zero entries of the entropy Jacobian, as
     /// `(feature k, variable j, exponent α_kj, monomial index of x^(α_k − e_j))`:
-    /// ∂φ_k/∂x_j = α_kj · `Self::monomials(x)[index]`.
+    /// ∂φ_k/∂x_j = α_kj · `Self::monomials(x)[index]`, where `index` is also within
+    /// [`Self::entropy_derivative_monomials`] (degree < r).
     pub const ENTROPY_JACOBIAN_TERMS: &'static [(u32, u32, f64, u32)] = &[
         (0, 0, 1.0, 0),
         (1, 1, 1.0, 0),
@@ -191,6 +192,96 @@ impl Oscillator {
             q2_p6,
             q_p7,
             p8,
+        ]
+    }
+    /// The 6 metric monomials φ_s of degree ≤ 2 at `x` (`Self::monomials(x)[..6]`), computed like [`Self::monomials`] but stopping at the metric degree.
+    ///
+    /// # Panics
+    ///
+    /// If `x.len() != 2`.
+    pub fn metric_monomials(x: &[f64]) -> [f64; 6] {
+        let &[q, p] = x else {
+            panic!("Oscillator: the state has 2 entries (q, p), got {}", x.len())
+        };
+        let (q2, q_p, p2) = (q * q, p * q, p * p);
+        [1.0, q, p, q2, q_p, p2]
+    }
+    /// The 36 monomials of degree ≤ 7 at `x` (`Self::monomials(x)[..36]`): all that the entropy's derivatives read, see [`Self::ENTROPY_JACOBIAN_TERMS`].
+    ///
+    /// # Panics
+    ///
+    /// If `x.len() != 2`.
+    pub fn entropy_derivative_monomials(x: &[f64]) -> [f64; 36] {
+        let &[q, p] = x else {
+            panic!("Oscillator: the state has 2 entries (q, p), got {}", x.len())
+        };
+        let (q2, q_p, p2) = (q * q, p * q, p * p);
+        let (q3, q2_p, q_p2, p3) = (q2 * q, q_p * q, p2 * q, p2 * p);
+        let (q4, q3_p, q2_p2, q_p3, p4) = (q3 * q, q2_p * q, q_p2 * q, p3 * q, p3 * p);
+        let (q5, q4_p, q3_p2, q2_p3, q_p4, p5) = (
+            q4 * q,
+            q3_p * q,
+            q2_p2 * q,
+            q_p3 * q,
+            p4 * q,
+            p4 * p,
+        );
+        let (q6, q5_p, q4_p2, q3_p3, q2_p4, q_p5, p6) = (
+            q5 * q,
+            q4_p * q,
+            q3_p2 * q,
+            q2_p3 * q,
+            q_p4 * q,
+            p5 * q,
+            p5 * p,
+        );
+        let (q7, q6_p, q5_p2, q4_p3, q3_p4, q2_p5, q_p6, p7) = (
+            q6 * q,
+            q5_p * q,
+            q4_p2 * q,
+            q3_p3 * q,
+            q2_p4 * q,
+            q_p5 * q,
+            p6 * q,
+            p6 * p,
+        );
+        [
+            1.0,
+            q,
+            p,
+            q2,
+            q_p,
+            p2,
+            q3,
+            q2_p,
+            q_p2,
+            p3,
+            q4,
+            q3_p,
+            q2_p2,
+            q_p3,
+            p4,
+            q5,
+            q4_p,
+            q3_p2,
+            q2_p3,
+            q_p4,
+            p5,
+            q6,
+            q5_p,
+            q4_p2,
+            q3_p3,
+            q2_p4,
+            q_p5,
+            p6,
+            q7,
+            q6_p,
+            q5_p2,
+            q4_p3,
+            q3_p4,
+            q2_p5,
+            q_p6,
+            p7,
         ]
     }
     /// The reference model declared in the `reference { … }` section.
@@ -385,7 +476,7 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
         features.copy_from_slice(&Self::monomials(x)[1..45]);
     }
     fn entropy_jacobian(x: &[f64], jacobian: &mut [f64]) {
-        let all = Self::monomials(x);
+        let all = Self::entropy_derivative_monomials(x);
         let length = jacobian.len();
         let jacobian: &mut [f64; 88] = jacobian
             .try_into()
@@ -470,7 +561,7 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
         jacobian[87] = 8.0 * all[35];
     }
     fn metric_features(x: &[f64], features: &mut [f64]) {
-        features.copy_from_slice(&Self::monomials(x)[..6]);
+        features.copy_from_slice(&Self::metric_monomials(x));
     }
     fn entropy_value(x: &[f64], coefficients: &[f64]) -> f64 {
         assert_eq!(
@@ -495,12 +586,53 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
             grad.len(), 2, "Oscillator: the gradient must have length 2, got {}", grad
             .len()
         );
-        let all = Self::monomials(x);
-        grad.fill(0.0);
-        for &(feature, variable, exponent, lower) in Self::ENTROPY_JACOBIAN_TERMS {
-            grad[variable as usize]
-                += coefficients[feature as usize] * exponent * all[lower as usize];
-        }
+        let psi: &[f64; 44] = coefficients
+            .try_into()
+            .unwrap_or_else(|_| {
+                panic!(
+                    "Oscillator: the entropy coefficients must have length 44, got {}",
+                    coefficients.len()
+                )
+            });
+        let all = Self::entropy_derivative_monomials(x);
+        let mut gradient = [0.0; 2];
+        gradient[0]
+            += psi[0] + 2.0 * psi[2] * all[1] + psi[3] * all[2] + 3.0 * psi[5] * all[3]
+                + 2.0 * psi[6] * all[4] + psi[7] * all[5] + 4.0 * psi[9] * all[6]
+                + 3.0 * psi[10] * all[7] + 2.0 * psi[11] * all[8] + psi[12] * all[9]
+                + 5.0 * psi[14] * all[10] + 4.0 * psi[15] * all[11]
+                + 3.0 * psi[16] * all[12] + 2.0 * psi[17] * all[13] + psi[18] * all[14]
+                + 6.0 * psi[20] * all[15];
+        gradient[0]
+            += 5.0 * psi[21] * all[16] + 4.0 * psi[22] * all[17]
+                + 3.0 * psi[23] * all[18] + 2.0 * psi[24] * all[19] + psi[25] * all[20]
+                + 7.0 * psi[27] * all[21] + 6.0 * psi[28] * all[22]
+                + 5.0 * psi[29] * all[23] + 4.0 * psi[30] * all[24]
+                + 3.0 * psi[31] * all[25] + 2.0 * psi[32] * all[26] + psi[33] * all[27]
+                + 8.0 * psi[35] * all[28] + 7.0 * psi[36] * all[29]
+                + 6.0 * psi[37] * all[30] + 5.0 * psi[38] * all[31];
+        gradient[0]
+            += 4.0 * psi[39] * all[32] + 3.0 * psi[40] * all[33]
+                + 2.0 * psi[41] * all[34] + psi[42] * all[35];
+        gradient[1]
+            += psi[1] + psi[3] * all[1] + 2.0 * psi[4] * all[2] + psi[6] * all[3]
+                + 2.0 * psi[7] * all[4] + 3.0 * psi[8] * all[5] + psi[10] * all[6]
+                + 2.0 * psi[11] * all[7] + 3.0 * psi[12] * all[8]
+                + 4.0 * psi[13] * all[9] + psi[15] * all[10] + 2.0 * psi[16] * all[11]
+                + 3.0 * psi[17] * all[12] + 4.0 * psi[18] * all[13]
+                + 5.0 * psi[19] * all[14] + psi[21] * all[15];
+        gradient[1]
+            += 2.0 * psi[22] * all[16] + 3.0 * psi[23] * all[17]
+                + 4.0 * psi[24] * all[18] + 5.0 * psi[25] * all[19]
+                + 6.0 * psi[26] * all[20] + psi[28] * all[21] + 2.0 * psi[29] * all[22]
+                + 3.0 * psi[30] * all[23] + 4.0 * psi[31] * all[24]
+                + 5.0 * psi[32] * all[25] + 6.0 * psi[33] * all[26]
+                + 7.0 * psi[34] * all[27] + psi[36] * all[28] + 2.0 * psi[37] * all[29]
+                + 3.0 * psi[38] * all[30] + 4.0 * psi[39] * all[31];
+        gradient[1]
+            += 5.0 * psi[40] * all[32] + 6.0 * psi[41] * all[33]
+                + 7.0 * psi[42] * all[34] + 8.0 * psi[43] * all[35];
+        grad.copy_from_slice(&gradient);
     }
     fn metric_value(x: &[f64], coefficients: &[f64], metric: &mut [f64]) {
         assert_eq!(
@@ -512,8 +644,7 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
             metric.len(), 4, "Oscillator: the metric must have length 4, got {}", metric
             .len()
         );
-        let all = Self::monomials(x);
-        let features = &all[..6];
+        let features = Self::metric_monomials(x);
         for row in 0..2 {
             for column in row..2 {
                 let pair = ::metriplectic_runtime::system::metric_pair_index(
@@ -522,7 +653,7 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
                     column,
                 );
                 let theta = &coefficients[pair * 6..(pair + 1) * 6];
-                let value: f64 = theta.iter().zip(features).map(|(t, f)| t * f).sum();
+                let value: f64 = theta.iter().zip(&features).map(|(t, f)| t * f).sum();
                 metric[row * 2 + column] = value;
                 metric[column * 2 + row] = value;
             }
@@ -551,7 +682,7 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
         for (row, out) in drift.iter_mut().enumerate() {
             *out = (0..2).map(|l| operator[row * 2 + l] * grad_h[l]).sum();
         }
-        let all = Self::monomials(x);
+        let all = Self::entropy_derivative_monomials(x);
         block.fill(0.0);
         for &(feature, variable, exponent, lower) in Self::ENTROPY_JACOBIAN_TERMS {
             let derivative = exponent * all[lower as usize];
@@ -579,8 +710,7 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
         for (row, out) in drift.iter_mut().enumerate() {
             *out = (0..2).map(|l| poisson[row * 2 + l] * gradient[l]).sum();
         }
-        let all = Self::monomials(x);
-        let features = &all[..6];
+        let features = Self::metric_monomials(x);
         block.fill(0.0);
         for row in 0..2 {
             for column in row..2 {

@@ -1,13 +1,16 @@
 //! Code generation: an analysed system → readable Rust.
 //!
 //! The generated code is meant to be read under `cargo expand`: the known
-//! parts (H, ∇H, Π) are short analytic expressions; all monomials are computed
-//! once, in graded-lex order, each as its parent monomial times one variable
-//! (one multiplication per monomial, powers shared); the entropy Jacobian is
-//! one multiplication of an already computed monomial per non-zero entry; the
-//! assembly functions are short loops over compile-time tables.
+//! parts (H, ∇H, Π) are short analytic expressions; monomials are computed in
+//! graded-lex order, each as its parent monomial times one variable (one
+//! multiplication per monomial, powers shared), and each function computes
+//! only the degrees it reads (the metric stops at the metric degree, the
+//! entropy's derivatives at r − 1); the entropy Jacobian is one
+//! multiplication of an already computed monomial per non-zero entry and the
+//! entropy gradient is straight-line sums per variable; the assembly
+//! functions are short loops over compile-time tables.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -198,6 +201,67 @@ fn monomial_names(system: &System) -> Vec<Ident> {
         .collect()
 }
 
+/// The body of a function returning the monomials of degree ≤ `max_degree`
+/// (a prefix of the graded-lex basis) at `x`, and its length.
+///
+/// One `let (..) = (..);` per degree: thousands of separate `let`s nest
+/// thousands of scopes, which overflows rustc's stack (measured: 3003 lets).
+fn monomial_body(
+    system: &System,
+    binding: &[Ident],
+    index: &HashMap<&[u32], usize>,
+    max_degree: u32,
+) -> (TokenStream, usize) {
+    let count = system
+        .monomials
+        .iter()
+        .take_while(|e| e.iter().sum::<u32>() <= max_degree)
+        .count();
+    let mut lets = Vec::new();
+    for degree in 2..=max_degree {
+        let mut names = Vec::new();
+        let mut products = Vec::new();
+        for (i, e) in system.monomials[..count].iter().enumerate() {
+            if e.iter().sum::<u32>() != degree {
+                continue;
+            }
+            let Some((parent, j)) = monomials::parent(e) else {
+                continue;
+            };
+            let parent_name = &binding[index[parent.as_slice()]];
+            let var = &system.state[j];
+            names.push(&binding[i]);
+            products.push(quote!(#parent_name * #var));
+        }
+        // A tuple, not an array: clippy's `possible_missing_comma` misreads
+        // products inside macro-generated arrays.
+        lets.push(quote!(let (#(#names,)*) = (#(#products,)*);));
+    }
+    let values = system.monomials[..count].iter().enumerate().map(|(i, e)| {
+        if e.iter().all(|&k| k == 0) {
+            quote!(1.0)
+        } else {
+            let b = &binding[i];
+            quote!(#b)
+        }
+    });
+    // Degree 0 alone reads no variable; from degree 1 on, every one.
+    let used = vec![max_degree > 0; system.state.len()];
+    let destructure = destructure(system, &used);
+    (
+        quote! {
+            #destructure
+            #(#lets)*
+            [#(#values),*]
+        },
+        count,
+    )
+}
+
+/// Sums of at most this many terms per statement: long chains of `+` nest
+/// as deeply as they are long in rustc's expression tree.
+const TERMS_PER_SUM: usize = 16;
+
 fn exponent_table(rows: &[Vec<u32>]) -> TokenStream {
     let rows = rows.iter().map(|e| {
         let entries = e.iter().map(|&k| Literal::u32_unsuffixed(k));
@@ -304,39 +368,14 @@ pub fn emit(system: &System) -> TokenStream {
     // ---- monomials ---------------------------------------------------------
     let binding = monomial_names(system);
     let index = monomials::index_of(&system.monomials);
-    // One `let [..] = [..];` per degree: thousands of separate `let`s nest
-    // thousands of scopes, which overflows rustc's stack (measured: 3003 lets).
-    let mut lets = Vec::new();
     let max_degree = system.entropy_degree.max(system.metric_degree);
-    for degree in 2..=max_degree {
-        let mut names = Vec::new();
-        let mut products = Vec::new();
-        for (i, e) in system.monomials.iter().enumerate() {
-            if e.iter().sum::<u32>() != degree {
-                continue;
-            }
-            let Some((parent, j)) = monomials::parent(e) else {
-                continue;
-            };
-            let parent_name = &binding[index[parent.as_slice()]];
-            let var = &state[j];
-            names.push(&binding[i]);
-            products.push(quote!(#parent_name * #var));
-        }
-        // A tuple, not an array: clippy's `possible_missing_comma` misreads
-        // products inside macro-generated arrays.
-        lets.push(quote!(let (#(#names,)*) = (#(#products,)*);));
-    }
-    let values = system.monomials.iter().enumerate().map(|(i, e)| {
-        if e.iter().all(|&k| k == 0) {
-            quote!(1.0)
-        } else {
-            let b = &binding[i];
-            quote!(#b)
-        }
-    });
-    let all_used = vec![true; n];
-    let destructure_all = destructure(system, &all_used);
+    let (monomials_body, _) = monomial_body(system, &binding, &index, max_degree);
+    let (metric_monomials_body, _) = monomial_body(system, &binding, &index, system.metric_degree);
+    // The entropy's derivatives only read monomials of degree < r.
+    let derivative_degree = system.entropy_degree.saturating_sub(1);
+    let (derivative_body, derivative_len) =
+        monomial_body(system, &binding, &index, derivative_degree);
+    let derivative_lit = usize_lit(derivative_len);
     let monomials_doc = [
         format!(
             "All {d} monomials of degree ≤ {} at `x`, graded lexicographic, starting with 1.",
@@ -382,10 +421,75 @@ pub fn emit(system: &System) -> TokenStream {
             jacobian_terms.push(quote!((#row_lit, #j_lit, #c, #src_lit)));
         }
     }
+    // ∇S = J(x)ᵀψ, one sum per variable j of ψ_k · α_kj · x^(α_k − e_j),
+    // in chunks of `TERMS_PER_SUM` terms.
+    let mut gradient_terms: Vec<Vec<TokenStream>> = vec![Vec::new(); n];
+    for (row, e) in system.monomials[1..=p].iter().enumerate() {
+        for (j, &k) in e.iter().enumerate() {
+            if k == 0 {
+                continue;
+            }
+            let mut lower = e.clone();
+            lower[j] -= 1;
+            let source = index[lower.as_slice()];
+            let feature = usize_lit(row);
+            let derivative = if source == 0 {
+                quote!(psi[#feature])
+            } else {
+                let src = usize_lit(source);
+                quote!(psi[#feature] * all[#src])
+            };
+            gradient_terms[j].push(if k == 1 {
+                derivative
+            } else {
+                let c = float(f64::from(k));
+                quote!(#c * #derivative)
+            });
+        }
+    }
+    let gradient_sums = gradient_terms.iter().enumerate().map(|(j, terms)| {
+        let j = usize_lit(j);
+        let chunks = terms.chunks(TERMS_PER_SUM).map(|chunk| {
+            let mut sum = TokenStream::new();
+            for (i, term) in chunk.iter().enumerate() {
+                if i > 0 {
+                    sum.extend(quote!(+));
+                }
+                sum.extend(term.clone());
+            }
+            quote!(gradient[#j] += #sum;)
+        });
+        quote!(#(#chunks)*)
+    });
+    let metric_monomials_doc = [
+        format!(
+            "The {m} metric monomials φ_s of degree ≤ {} at `x` (`Self::monomials(x)[..{m}]`), \
+             computed like [`Self::monomials`] but stopping at the metric degree.",
+            system.metric_degree
+        ),
+        String::new(),
+        "# Panics".to_string(),
+        String::new(),
+        format!("If `x.len() != {n}`."),
+    ]
+    .map(doc);
+    let derivative_monomials_doc = [
+        format!(
+            "The {derivative_len} monomials of degree ≤ {derivative_degree} at `x` \
+             (`Self::monomials(x)[..{derivative_len}]`): all that the entropy's derivatives read, \
+             see [`Self::ENTROPY_JACOBIAN_TERMS`]."
+        ),
+        String::new(),
+        "# Panics".to_string(),
+        String::new(),
+        format!("If `x.len() != {n}`."),
+    ]
+    .map(doc);
     let jacobian_terms_doc = [
         "The non-zero entries of the entropy Jacobian, as",
         "`(feature k, variable j, exponent α_kj, monomial index of x^(α_k − e_j))`:",
-        "∂φ_k/∂x_j = α_kj · `Self::monomials(x)[index]`.",
+        "∂φ_k/∂x_j = α_kj · `Self::monomials(x)[index]`, where `index` is also within",
+        "[`Self::entropy_derivative_monomials`] (degree < r).",
     ]
     .map(doc);
 
@@ -476,9 +580,17 @@ pub fn emit(system: &System) -> TokenStream {
 
             #(#monomials_doc)*
             pub fn monomials(x: &[f64]) -> [f64; #d_lit] {
-                #destructure_all
-                #(#lets)*
-                [#(#values),*]
+                #monomials_body
+            }
+
+            #(#metric_monomials_doc)*
+            pub fn metric_monomials(x: &[f64]) -> [f64; #m_lit] {
+                #metric_monomials_body
+            }
+
+            #(#derivative_monomials_doc)*
+            pub fn entropy_derivative_monomials(x: &[f64]) -> [f64; #derivative_lit] {
+                #derivative_body
             }
 
             #reference_fn
@@ -539,7 +651,7 @@ pub fn emit(system: &System) -> TokenStream {
             }
 
             fn entropy_jacobian(x: &[f64], jacobian: &mut [f64]) {
-                let all = Self::monomials(x);
+                let all = Self::entropy_derivative_monomials(x);
                 let length = jacobian.len();
                 let jacobian: &mut [f64; #np_lit] = jacobian
                     .try_into()
@@ -549,7 +661,7 @@ pub fn emit(system: &System) -> TokenStream {
             }
 
             fn metric_features(x: &[f64], features: &mut [f64]) {
-                features.copy_from_slice(&Self::monomials(x)[..#m_lit]);
+                features.copy_from_slice(&Self::metric_monomials(x));
             }
 
             fn entropy_value(x: &[f64], coefficients: &[f64]) -> f64 {
@@ -565,24 +677,24 @@ pub fn emit(system: &System) -> TokenStream {
             fn entropy_gradient(x: &[f64], coefficients: &[f64], grad: &mut [f64]) {
                 assert_eq!(coefficients.len(), #p_lit, #psi_message, coefficients.len());
                 assert_eq!(grad.len(), #n_lit, #gradient_message, grad.len());
-                let all = Self::monomials(x);
-                grad.fill(0.0);
-                for &(feature, variable, exponent, lower) in Self::ENTROPY_JACOBIAN_TERMS {
-                    grad[variable as usize] +=
-                        coefficients[feature as usize] * exponent * all[lower as usize];
-                }
+                let psi: &[f64; #p_lit] = coefficients
+                    .try_into()
+                    .unwrap_or_else(|_| panic!(#psi_message, coefficients.len()));
+                let all = Self::entropy_derivative_monomials(x);
+                let mut gradient = [0.0; #n_lit];
+                #(#gradient_sums)*
+                grad.copy_from_slice(&gradient);
             }
 
             fn metric_value(x: &[f64], coefficients: &[f64], metric: &mut [f64]) {
                 assert_eq!(coefficients.len(), #theta_len, #theta_message, coefficients.len());
                 assert_eq!(metric.len(), #nn_lit, #metric_message, metric.len());
-                let all = Self::monomials(x);
-                let features = &all[..#m_lit];
+                let features = Self::metric_monomials(x);
                 for row in 0..#n_lit {
                     for column in row..#n_lit {
                         let pair = ::metriplectic_runtime::system::metric_pair_index(#n_lit, row, column);
                         let theta = &coefficients[pair * #m_lit..(pair + 1) * #m_lit];
-                        let value: f64 = theta.iter().zip(features).map(|(t, f)| t * f).sum();
+                        let value: f64 = theta.iter().zip(&features).map(|(t, f)| t * f).sum();
                         metric[row * #n_lit + column] = value;
                         metric[column * #n_lit + row] = value;
                     }
@@ -605,7 +717,7 @@ pub fn emit(system: &System) -> TokenStream {
                     *out = (0..#n_lit).map(|l| operator[row * #n_lit + l] * grad_h[l]).sum();
                 }
                 // block = M J(x)ᵀ, one sparse Jacobian entry at a time.
-                let all = Self::monomials(x);
+                let all = Self::entropy_derivative_monomials(x);
                 block.fill(0.0);
                 for &(feature, variable, exponent, lower) in Self::ENTROPY_JACOBIAN_TERMS {
                     let derivative = exponent * all[lower as usize];
@@ -626,8 +738,7 @@ pub fn emit(system: &System) -> TokenStream {
                     *out = (0..#n_lit).map(|l| poisson[row * #n_lit + l] * gradient[l]).sum();
                 }
                 // K(x; θ) g: θ_jk,a multiplies φ_a g_k in row j and φ_a g_j in row k.
-                let all = Self::monomials(x);
-                let features = &all[..#m_lit];
+                let features = Self::metric_monomials(x);
                 block.fill(0.0);
                 for row in 0..#n_lit {
                     for column in row..#n_lit {

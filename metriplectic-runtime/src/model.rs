@@ -160,44 +160,58 @@ impl<S: MetriplecticSystem> Model<S> {
     pub fn free_energy_rate(&self, x: &[f64]) -> Result<f64> {
         check_state::<S>(x)?;
         let n = S::DIM;
-        let mut grad = vec![0.0; n];
-        let mut metric = vec![0.0; n * n];
-        self.free_energy_gradient_unchecked(x, &mut grad);
-        S::metric_value(x, &self.metric, &mut metric);
-        Ok(quadratic_form(&metric, &grad))
+        Ok(with_scratch(n + n * n, |scratch| {
+            let (grad, metric) = scratch.split_at_mut(n);
+            self.free_energy_gradient_unchecked(x, grad);
+            S::metric_value(x, &self.metric, metric);
+            quadratic_form(metric, grad)
+        }))
     }
 
     /// ∇E without length checks: callers have checked `x` and `grad`.
     pub(crate) fn free_energy_gradient_unchecked(&self, x: &[f64], grad: &mut [f64]) {
         S::entropy_gradient(x, &self.entropy, grad);
-        let mut grad_h = [0.0; 16];
-        if S::DIM <= grad_h.len() {
-            S::hamiltonian_gradient(x, &mut grad_h[..S::DIM]);
-            grad.iter_mut().zip(&grad_h).for_each(|(g, h)| *g += h);
-        } else {
-            let mut grad_h = vec![0.0; S::DIM];
-            S::hamiltonian_gradient(x, &mut grad_h);
-            grad.iter_mut().zip(&grad_h).for_each(|(g, h)| *g += h);
-        }
+        with_scratch(S::DIM, |grad_h| {
+            S::hamiltonian_gradient(x, grad_h);
+            grad.iter_mut().zip(&*grad_h).for_each(|(g, h)| *g += h);
+        });
     }
 
     /// f(x) without length checks: callers have checked `x` and `xdot`.
     pub(crate) fn vector_field_unchecked(&self, x: &[f64], xdot: &mut [f64]) {
         let n = S::DIM;
-        let mut grad = vec![0.0; n];
-        let mut operator = vec![0.0; n * n];
-        let mut metric = vec![0.0; n * n];
-        self.free_energy_gradient_unchecked(x, &mut grad);
-        S::poisson(x, &mut operator);
-        S::metric_value(x, &self.metric, &mut metric);
-        operator.iter_mut().zip(&metric).for_each(|(m, k)| *m += k);
-        for (j, out) in xdot.iter_mut().enumerate() {
-            *out = operator[j * n..(j + 1) * n]
-                .iter()
-                .zip(&grad)
-                .map(|(m, g)| m * g)
-                .sum();
-        }
+        with_scratch(n + 2 * n * n, |scratch| {
+            let (grad, matrices) = scratch.split_at_mut(n);
+            let (operator, metric) = matrices.split_at_mut(n * n);
+            self.free_energy_gradient_unchecked(x, grad);
+            S::poisson(x, operator);
+            S::metric_value(x, &self.metric, metric);
+            operator.iter_mut().zip(&*metric).for_each(|(m, k)| *m += k);
+            for (j, out) in xdot.iter_mut().enumerate() {
+                *out = operator[j * n..(j + 1) * n]
+                    .iter()
+                    .zip(&*grad)
+                    .map(|(m, g)| m * g)
+                    .sum();
+            }
+        });
+    }
+}
+
+/// Runs `f` on `len` zeroed scratch entries without allocating for the
+/// sizes evaluation needs (n + 2n² ≤ 8256 for the macro's n ≤ 64), and on
+/// the heap beyond. Tiers keep the zeroing close to `len`: `len` is a
+/// constant of the system, so after inlining only one branch remains.
+#[inline(always)]
+fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    if len <= 64 {
+        f(&mut [0.0; 64][..len])
+    } else if len <= 512 {
+        f(&mut [0.0; 512][..len])
+    } else if len <= 8256 {
+        f(&mut [0.0; 8256][..len])
+    } else {
+        f(&mut vec![0.0; len])
     }
 }
 
