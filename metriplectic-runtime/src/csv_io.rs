@@ -313,7 +313,7 @@ pub fn read_trajectories_from(reader: impl Read, names: &[&str]) -> Result<Vec<T
             }
         }
 
-        let new_trajectory = builder.current.as_ref().map_or(true, |c| c.id != id);
+        let new_trajectory = builder.current.as_ref().is_none_or(|c| c.id != id);
         if new_trajectory {
             if let Some(id) = &id {
                 if let Some(&first_line) = seen_ids.get(id) {
