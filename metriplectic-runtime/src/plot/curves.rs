@@ -224,15 +224,7 @@ impl Figure for Curves<'_> {
             }
         }
         if named {
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.4))
-                .label_font(style::small())
-                .legend_area_size(style::LEGEND_AREA)
-                .margin(12)
-                .draw()?;
+            render::draw_legend(&mut chart)?;
         }
         Ok(())
     }

@@ -89,6 +89,23 @@ pub(crate) fn render<F: Figure>(path: &Path, figure: &F) -> Result<(), PlotError
     }
 }
 
+/// Draws the series legend in the upper-right corner, in the style every
+/// figure shares.
+pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> Result<(), Failure> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(super::style::small())
+        .legend_area_size(super::style::LEGEND_AREA)
+        .margin(12)
+        .draw()?;
+    Ok(())
+}
+
 fn draw_on<DB: DrawingBackend, F: Figure>(
     root: &DrawingArea<DB, Shift>,
     figure: &F,

@@ -200,15 +200,7 @@ impl Figure for Trajectories3d<'_> {
                 Circle::new((x + style::LEGEND_LINE / 2, y), 5, style::START.filled())
             });
 
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font(style::small())
-            .legend_area_size(style::LEGEND_AREA)
-            .margin(12)
-            .draw()?;
+        render::draw_legend(&mut chart)?;
         Ok(())
     }
 }
