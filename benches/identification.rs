@@ -3,18 +3,21 @@
 //! A report bench (`harness = false`, plain timing: each measured thing takes
 //! 0.1–10 s, so a few repetitions say more than criterion's statistics):
 //!
-//! 1. one Algorithm-2 iteration at q = 2000 for both paper systems, split
-//!    into assembly and solver (the runtime's `SolveReport` timings) and the
-//!    rest of the wall time;
-//! 2. scaling of the iteration time with q and with the entropy degree,
-//!    with the fitted log-log slope;
-//! 3. the three `L1Formulation`s of the entropy LP at q = 2000;
+//! 1. one Algorithm-2 iteration at q = 2000 for both paper systems and both
+//!    solver backends, split into assembly and solver (the runtime's
+//!    `SolveReport` timings) and the rest of the wall time;
+//! 2. scaling of the iteration time (dense backend) with q and with the
+//!    entropy degree, with the fitted log-log slope; then the paper-sized
+//!    SO(3) run (350 iterations at q = 2000) end to end;
+//! 3. the metric search with both backends, and the entropy LP with the
+//!    dense backend and Clarabel's three `L1Formulation`s at q = 2000;
 //! 4. Clarabel setup against iterations, and reusing the solver across
 //!    minibatches (`update_A`/`update_b`) against rebuilding it;
-//! 5. the floor: time per interior-point iteration against a dense
-//!    Aᵀ D A of the LP's shape (the p×p Schur complement on ψ).
+//! 5. the floor: time per interior-point iteration of both backends against
+//!    a dense Aᵀ D A of the LP's shape (the p×p Schur complement on ψ).
 //!
-//! `cargo bench --bench identification` (add `-- --quick` for a shorter run;
+//! `cargo bench --bench identification` (add `-- --quick` for a shorter run
+//! without q > 2000 and without the paper-sized run;
 //! `-- --peak` runs only the largest scaling point and prints the peak RSS).
 //! Tables are printed as Markdown for BENCHMARKS.md. The SO(3) entropy LP at
 //! q = 2000 is written to `target/bench-data/` for `scripts/faer_ldl.sh`.
@@ -29,8 +32,8 @@ use metriplectic_runtime::model::identity_metric;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::system::metric_pair_index;
 use metriplectic_runtime::{
-    entropy_search, identify_with_observer, metric_search, EntropySearchOptions, IdentifyConfig,
-    L1Formulation, MetricSearchOptions,
+    entropy_search, identify_with_observer, metric_search, model_cost, EntropySearchOptions,
+    IdentifyConfig, L1Formulation, MetricSearchOptions, SolverBackend, SolverSettings,
 };
 use nalgebra::DMatrix;
 use rand::seq::index::sample;
@@ -101,8 +104,13 @@ fn time_iterations<S: MetriplecticSystem>(
     q: usize,
     sigma: f64,
     iterations: usize,
+    backend: SolverBackend,
 ) -> Vec<IterationTiming> {
     let config = IdentifyConfig {
+        solver: SolverSettings {
+            backend,
+            ..SolverSettings::default()
+        },
         batch_size: Some(q),
         max_iterations: iterations,
         tolerance: 0.0,
@@ -321,48 +329,64 @@ fn solver_sections<S: MetriplecticSystem>(
     metric[metric_pair_index(S::DIM, 0, 1) * S::METRIC_EXPONENTS.len()] = 0.3;
 
     // The metric search on the same batch, from the paper's initial entropy.
-    let options = MetricSearchOptions {
-        eta,
-        ..MetricSearchOptions::default()
-    };
     let entropy = perturbed_reference_entropy::<S>(1.0, 5);
-    let mut solver = Vec::new();
-    let mut last = None;
-    for _ in 0..repeats {
-        let fit = metric_search::<S>(&batch, &entropy, &options).expect("metric search");
-        solver.push(fit.report.solver_seconds);
-        last = Some(fit.report);
-    }
-    let report = last.expect("at least one repeat");
-    let solver = median_of(&mut solver);
     println!(
-        "\n#### {} — metric search (q = {q}, {:?} formulation, reduced SOS, θ has {} coefficients)\n\nsolver {solver:.3} s in {} IPM iterations = {:.1} ms each; assembly {:.4} s; status {}",
+        "\n#### {} — metric search (q = {q}, reduced SOS, θ has {} coefficients)\n",
         S::NAME,
-        options.formulation,
         S::metric_coefficient_count(),
-        report.iterations,
-        1e3 * solver / f64::from(report.iterations.max(1)),
-        report.assembly_seconds,
-        report.status,
     );
+    println!("| backend | solver (s, median of {repeats}) | IPM iterations | per IPM iteration (ms) | assembly (s) | cost (sum) | status |");
+    println!("|---|---|---|---|---|---|---|");
+    for backend in [SolverBackend::Dense, SolverBackend::Clarabel] {
+        let options = MetricSearchOptions {
+            eta,
+            solver: SolverSettings {
+                backend,
+                ..SolverSettings::default()
+            },
+            ..MetricSearchOptions::default()
+        };
+        let mut solver = Vec::new();
+        let mut last = None;
+        for _ in 0..repeats {
+            let fit = metric_search::<S>(&batch, &entropy, &options).expect("metric search");
+            solver.push(fit.report.solver_seconds);
+            last = Some(fit.report);
+        }
+        let report = last.expect("at least one repeat");
+        let solver = median_of(&mut solver);
+        println!(
+            "| {backend:?} | {solver:.3} | {} | {:.1} | {:.4} | {:.6e} | {} |",
+            report.iterations,
+            1e3 * solver / f64::from(report.iterations.max(1)),
+            report.assembly_seconds,
+            report.cost.map_or(f64::NAN, |c| c.sum),
+            report.status,
+        );
+    }
 
     // 3. The runtime's three formulations on the same batch.
     println!(
-        "\n#### {} — entropy LP formulations (q = {q}, K = I + 0.3 (e₀e₁ᵀ + e₁e₀ᵀ))\n",
+        "\n#### {} — entropy LP: dense backend and Clarabel's formulations (q = {q}, K = I + 0.3 (e₀e₁ᵀ + e₁e₀ᵀ))\n",
         S::NAME
     );
-    println!("| formulation | solver (s, median of {repeats}) | IPM iterations | per IPM iteration (ms) | assembly (s) | cost (sum) | status |");
+    println!("| backend / formulation | solver (s, median of {repeats}) | IPM iterations | per IPM iteration (ms) | assembly (s) | cost (sum) | status |");
     println!("|---|---|---|---|---|---|---|");
     let mut split_cost = None;
-    for formulation in [
-        L1Formulation::Slack,
-        L1Formulation::ExplicitResidual,
-        L1Formulation::Split,
+    let mut dense_per_iteration = f64::NAN;
+    for (backend, formulation) in [
+        (SolverBackend::Dense, L1Formulation::Split),
+        (SolverBackend::Clarabel, L1Formulation::Slack),
+        (SolverBackend::Clarabel, L1Formulation::ExplicitResidual),
+        (SolverBackend::Clarabel, L1Formulation::Split),
     ] {
         let options = EntropySearchOptions {
             eta,
             formulation,
-            ..EntropySearchOptions::default()
+            solver: SolverSettings {
+                backend,
+                ..SolverSettings::default()
+            },
         };
         let mut solver = Vec::new();
         let mut assembly = Vec::new();
@@ -375,12 +399,21 @@ fn solver_sections<S: MetriplecticSystem>(
         }
         let report = last.expect("at least one repeat");
         let cost = report.cost.map_or(f64::NAN, |c| c.sum);
-        if formulation == L1Formulation::Split {
-            split_cost = Some(cost);
-        }
         let solver = median_of(&mut solver);
+        let label = match backend {
+            SolverBackend::Dense => {
+                dense_per_iteration = solver / f64::from(report.iterations.max(1));
+                "Dense (default)".to_owned()
+            }
+            _ => {
+                if formulation == L1Formulation::Split {
+                    split_cost = Some(cost);
+                }
+                format!("Clarabel, {formulation:?}")
+            }
+        };
         println!(
-            "| {formulation:?} | {solver:.3} | {} | {:.1} | {:.4} | {cost:.6e} | {} |",
+            "| {label} | {solver:.3} | {} | {:.1} | {:.4} | {cost:.6e} | {} |",
             report.iterations,
             1e3 * solver / f64::from(report.iterations.max(1)),
             median_of(&mut assembly),
@@ -477,11 +510,12 @@ fn solver_sections<S: MetriplecticSystem>(
     let floor = median_of(&mut times);
     let flops = 2.0 * r as f64 * (lp.p * lp.p) as f64;
     println!(
-        "\nfloor: dense Aᵀ D A ({r} × {p}) + Cholesky with nalgebra: {:.2} ms ({:.2} GFLOP/s on 2·r·p² = {:.1e} flops); Clarabel IPM iteration / floor = {:.0}×",
+        "\nfloor: dense Aᵀ D A ({r} × {p}) + Cholesky with nalgebra: {:.2} ms ({:.2} GFLOP/s on 2·r·p² = {:.1e} flops); IPM iteration / floor: Clarabel {:.0}×, dense backend {:.1}×",
         1e3 * floor,
         flops / floor / 1e9,
         flops,
         per_iteration / floor,
+        dense_per_iteration / floor,
         p = lp.p,
     );
 
@@ -508,12 +542,11 @@ fn main() {
     let (quick, full, peak) = (flag("--quick"), flag("--full"), flag("--peak"));
     let iterations = if quick { 1 } else { 2 };
     let repeats = if quick { 1 } else { 3 };
-    // The iteration time grows like q² (see BENCHMARKS.md): q = 8000 takes
-    // minutes per iteration, so the large sizes run only with --full.
-    let q_list: &[usize] = if full {
-        &[500, 1000, 2000, 4000, 8000]
-    } else {
+    // With the dense backend q = 8000 costs about a second per iteration.
+    let q_list: &[usize] = if quick {
         &[500, 1000, 2000]
+    } else {
+        &[500, 1000, 2000, 4000, 8000]
     };
     let largest = if peak {
         8000
@@ -523,7 +556,13 @@ fn main() {
 
     let rigid = rigid_body_data(2 * largest.max(2000), 1);
     if peak {
-        let t = median(&time_iterations::<RigidBody>(&rigid, largest, 1.0, 1));
+        let t = median(&time_iterations::<RigidBody>(
+            &rigid,
+            largest,
+            1.0,
+            1,
+            SolverBackend::Dense,
+        ));
         println!(
             "RigidBody q = {largest}: one iteration {:.2} s; peak RSS {:.0} MiB",
             t.wall,
@@ -535,6 +574,9 @@ fn main() {
 
     if !flag("--solver-only") {
         iteration_sections(&linear, &rigid, q_list, iterations, full);
+        if !quick {
+            paper_sized_run(&rigid);
+        }
     }
 
     println!("\n### 3–5. Entropy LP: formulations, setup and reuse, floor\n");
@@ -542,6 +584,38 @@ fn main() {
     let dump_path = format!("{target}/bench-data/entropy_lp_rigid_body_q2000.json");
     solver_sections::<Linear2d>(&linear, 2000, repeats, None);
     solver_sections::<RigidBody>(&rigid, 2000, repeats, Some(&dump_path));
+}
+
+/// The goal: the paper's SO(3) run (Algorithm 2, 350 iterations at
+/// q = 2000, from the paper's initial entropy) end to end.
+fn paper_sized_run(rigid: &Dataset) {
+    let config = IdentifyConfig {
+        batch_size: Some(2000),
+        max_iterations: 350,
+        tolerance: 0.0,
+        seed: 3,
+        initial_entropy: Some(perturbed_reference_entropy::<RigidBody>(1.0, 5)),
+        ..IdentifyConfig::default()
+    };
+    let start = Instant::now();
+    let result =
+        identify_with_observer::<RigidBody, _>(rigid, &config, |_, _| ControlFlow::Continue(()))
+            .expect("identification runs");
+    let seconds = start.elapsed().as_secs_f64();
+    let solver: f64 = result
+        .history
+        .iterations
+        .iter()
+        .map(|r| r.metric.report.solver_seconds + r.entropy.report.solver_seconds)
+        .sum();
+    let cost = model_cost(&result.model, rigid).map_or(f64::NAN, |c| c.per_component);
+    println!(
+        "\n### Paper-sized SO(3) run (dense backend, Algorithm 2, q = 2000)\n\n{} iterations in {seconds:.1} s ({:.0} ms per iteration, solver {:.0}%); final cost per component on all {} samples {cost:.2e}",
+        result.history.iterations.len(),
+        1e3 * seconds / result.history.iterations.len().max(1) as f64,
+        100.0 * solver / seconds,
+        rigid.len(),
+    );
 }
 
 /// Sections 1 and 2: whole identification iterations.
@@ -553,27 +627,30 @@ fn iteration_sections(
     full: bool,
 ) {
     println!("### 1. One iteration at q = 2000 (median of {iterations}; wall = time between observer calls)\n");
-    println!("| system | q | wall (s) | assembly (s, %) | solver (s, %) | other (s, %) | assembly + other | IPM iterations metric + entropy |");
+    println!("| system, backend | q | wall (s) | assembly (s, %) | solver (s, %) | other (s, %) | assembly + other | IPM iterations metric + entropy |");
     println!("|---|---|---|---|---|---|---|---|");
-    split_row(
-        "Linear2d",
-        2000,
-        &time_iterations::<Linear2d>(linear, 2000, 0.5, iterations),
-    );
-    split_row(
-        "RigidBody",
-        2000,
-        &time_iterations::<RigidBody>(rigid, 2000, 1.0, iterations),
+    let mut walls = Vec::new();
+    for backend in [SolverBackend::Dense, SolverBackend::Clarabel] {
+        let linear_t = time_iterations::<Linear2d>(linear, 2000, 0.5, iterations, backend);
+        let rigid_t = time_iterations::<RigidBody>(rigid, 2000, 1.0, iterations, backend);
+        split_row(&format!("Linear2d, {backend:?}"), 2000, &linear_t);
+        split_row(&format!("RigidBody, {backend:?}"), 2000, &rigid_t);
+        walls.push((median(&linear_t).wall, median(&rigid_t).wall));
+    }
+    println!(
+        "\nClarabel / dense wall time per iteration: Linear2d {:.1}×, RigidBody {:.1}×",
+        walls[1].0 / walls[0].0,
+        walls[1].1 / walls[0].1
     );
 
-    println!("\n### 2. Scaling\n");
+    println!("\n### 2. Scaling (dense backend)\n");
     println!("| system | q | wall (s) | assembly (s, %) | solver (s, %) | other (s, %) | assembly + other | IPM iterations metric + entropy |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut points = Vec::new();
     for &q in q_list {
         // One iteration at the large sizes keeps --full within minutes.
         let count = if q > 2000 { 1 } else { iterations };
-        let timings = time_iterations::<RigidBody>(rigid, q, 1.0, count);
+        let timings = time_iterations::<RigidBody>(rigid, q, 1.0, count, SolverBackend::Dense);
         points.push((q as f64, median(&timings).wall));
         split_row("RigidBody", q, &timings);
     }
@@ -582,17 +659,17 @@ fn iteration_sections(
     for (degree, timings, p) in [
         (
             4,
-            time_iterations::<RigidBodyDegree4>(rigid, 2000, 1.0, iterations),
+            time_iterations::<RigidBodyDegree4>(rigid, 2000, 1.0, iterations, SolverBackend::Dense),
             RigidBodyDegree4::entropy_coefficient_count(),
         ),
         (
             6,
-            time_iterations::<RigidBody>(rigid, 2000, 1.0, iterations),
+            time_iterations::<RigidBody>(rigid, 2000, 1.0, iterations, SolverBackend::Dense),
             RigidBody::entropy_coefficient_count(),
         ),
         (
             8,
-            time_iterations::<RigidBodyDegree8>(rigid, 2000, 1.0, iterations),
+            time_iterations::<RigidBodyDegree8>(rigid, 2000, 1.0, iterations, SolverBackend::Dense),
             RigidBodyDegree8::entropy_coefficient_count(),
         ),
     ] {

@@ -9,7 +9,7 @@
 //! ```
 //!
 //! assembled from the system's per-sample [`entropy_block`](MetriplecticSystem::entropy_block)
-//! straight into Clarabel's CSC format (see [`crate::conic`]).
+//! and solved by the configured backend (see [`crate::conic`]).
 
 use clarabel::solver::SupportedConeT;
 use serde::{Deserialize, Serialize};
@@ -29,9 +29,9 @@ use crate::system::MetriplecticSystem;
 pub struct EntropySearchOptions {
     /// Box bound η: every entropy coefficient satisfies |ψₖ| ≤ η.
     pub eta: f64,
-    /// How the L1 objective is written for Clarabel.
+    /// How the L1 objective is written for Clarabel (Clarabel backend only).
     pub formulation: L1Formulation,
-    /// Clarabel settings.
+    /// Solver settings, including the backend.
     pub solver: SolverSettings,
 }
 
@@ -72,7 +72,7 @@ pub(crate) fn check_eta(eta: f64) -> Result<()> {
 /// (`metric`) held fixed.
 ///
 /// Errors on invalid input (dimension, lengths, non-finite θ, η ≤ 0) or if
-/// the assembled problem is rejected by Clarabel. Solver trouble (infeasible,
+/// the assembled problem is rejected by the solver. Solver trouble (infeasible,
 /// iteration limit, numerical error) is *not* an error: it is reported in
 /// [`SolveReport::status`].
 pub fn entropy_search<S: MetriplecticSystem>(
@@ -160,6 +160,7 @@ pub(crate) fn entropy_regression<S: MetriplecticSystem>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::conic::SolverBackend;
     use crate::model::identity_metric;
     use crate::test_system::{reference_data, Quadratic2d};
 
@@ -167,13 +168,18 @@ mod tests {
     fn recovers_the_reference_entropy_with_zero_cost() {
         let data = reference_data(40, 1);
         let truth = Quadratic2d::REFERENCE_ENTROPY.unwrap();
-        for formulation in [
-            L1Formulation::Slack,
-            L1Formulation::ExplicitResidual,
-            L1Formulation::Split,
+        for (backend, formulation) in [
+            (SolverBackend::Clarabel, L1Formulation::Slack),
+            (SolverBackend::Clarabel, L1Formulation::ExplicitResidual),
+            (SolverBackend::Clarabel, L1Formulation::Split),
+            (SolverBackend::Dense, L1Formulation::Split),
         ] {
             let options = EntropySearchOptions {
                 formulation,
+                solver: SolverSettings {
+                    backend,
+                    ..SolverSettings::default()
+                },
                 ..EntropySearchOptions::default()
             };
             let fit = entropy_search::<Quadratic2d>(
@@ -192,9 +198,12 @@ mod tests {
             let cost = fit.report.cost.unwrap();
             assert!(
                 error < 1e-7,
-                "{formulation:?}: max coefficient error {error}"
+                "{backend:?} {formulation:?}: max coefficient error {error}"
             );
-            assert!(cost.per_component < 1e-7, "{formulation:?}: {cost:?}");
+            assert!(
+                cost.per_component < 1e-7,
+                "{backend:?} {formulation:?}: {cost:?}"
+            );
         }
     }
 

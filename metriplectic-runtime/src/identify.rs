@@ -80,9 +80,9 @@ pub struct IdentifyConfig {
     pub initial_entropy: Option<Vec<f64>>,
     /// Initial metric coefficients θ⁽⁰⁾ (`None`: the identity metric).
     pub initial_metric: Option<Vec<f64>>,
-    /// Clarabel settings for both subproblems.
+    /// Solver settings (backend, tolerances) for both subproblems.
     pub solver: SolverSettings,
-    /// How the L1 objectives are written for Clarabel.
+    /// How the L1 objectives are written for Clarabel (Clarabel backend only).
     pub formulation: L1Formulation,
     /// SOS tables for the metric search.
     pub sos: SosBasis,
@@ -725,8 +725,12 @@ mod tests {
             .zip([0.05, -0.1, 0.08, -0.03, 0.1])
             .map(|(c, d)| c + d)
             .collect();
+        // The alternation converges linearly here (the cost halves per
+        // iteration with the dense backend: 3.9e-7 after 20 iterations), so
+        // the budget allows 40; Clarabel's less accurate block solutions
+        // happen to jump to the exact fit after about 20.
         let config = IdentifyConfig {
-            max_iterations: 20,
+            max_iterations: 40,
             tolerance: 1e-9,
             initial_entropy: Some(start),
             ..IdentifyConfig::default()

@@ -10,8 +10,10 @@
 //! decreases (dE/dt = ∇Eᵀ K ∇E ≥ 0). The Poisson tensor Π and Hamiltonian H
 //! are known; the entropy S and the metric K are identified from measured
 //! samples (x, ẋ) by alternating a linear program (entropy search) and a
-//! sum-of-squares semidefinite program (metric search), both solved with
-//! Clarabel.
+//! sum-of-squares semidefinite program (metric search). Both are solved by
+//! the runtime's dense interior-point method by default (the L1 auxiliaries
+//! eliminated, one small dense factorisation per iteration) or by Clarabel
+//! ([`SolverBackend`]).
 //!
 //! A system is declared once with the [`metriplectic!`] macro, which checks it
 //! symbolically at compile time and generates the monomial tables, analytic
@@ -54,6 +56,7 @@ pub mod conic;
 pub mod cost;
 pub mod csv_io;
 pub mod dataset;
+mod dense_ipm;
 pub mod derivative;
 pub mod diagnostics;
 pub mod entropy_search;
@@ -74,7 +77,7 @@ mod test_system;
 pub mod trajectory;
 
 pub use checkpoint::CheckpointConfig;
-pub use conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
+pub use conic::{L1Formulation, SolveReport, SolveStatus, SolverBackend, SolverSettings};
 pub use cost::{model_cost, Cost};
 pub use csv_io::{read_trajectories, write_trajectories, CsvError, WriteMode};
 pub use dataset::{Dataset, DatasetError};

@@ -61,11 +61,11 @@ impl SosBasis {
 pub struct MetricSearchOptions {
     /// Upper bound: K(x) ⪯ ηI.
     pub eta: f64,
-    /// How the L1 objective is written for Clarabel.
+    /// How the L1 objective is written for Clarabel (Clarabel backend only).
     pub formulation: L1Formulation,
     /// Which SOS tables to use.
     pub sos: SosBasis,
-    /// Clarabel settings.
+    /// Solver settings, including the backend.
     pub solver: SolverSettings,
 }
 
