@@ -539,7 +539,7 @@ fn peak_rss_mib() -> Option<f64> {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let flag = |name: &str| args.iter().any(|a| a == name);
-    let (quick, full, peak) = (flag("--quick"), flag("--full"), flag("--peak"));
+    let (quick, peak) = (flag("--quick"), flag("--peak"));
     let iterations = if quick { 1 } else { 2 };
     let repeats = if quick { 1 } else { 3 };
     // With the dense backend q = 8000 costs about a second per iteration.
@@ -573,7 +573,7 @@ fn main() {
     let linear = linear2d_data(3 * 2000, 2);
 
     if !flag("--solver-only") {
-        iteration_sections(&linear, &rigid, q_list, iterations, full);
+        iteration_sections(&linear, &rigid, q_list, iterations);
         if !quick {
             paper_sized_run(&rigid);
         }
@@ -619,13 +619,7 @@ fn paper_sized_run(rigid: &Dataset) {
 }
 
 /// Sections 1 and 2: whole identification iterations.
-fn iteration_sections(
-    linear: &Dataset,
-    rigid: &Dataset,
-    q_list: &[usize],
-    iterations: usize,
-    full: bool,
-) {
+fn iteration_sections(linear: &Dataset, rigid: &Dataset, q_list: &[usize], iterations: usize) {
     println!("### 1. One iteration at q = 2000 (median of {iterations}; wall = time between observer calls)\n");
     println!("| system, backend | q | wall (s) | assembly (s, %) | solver (s, %) | other (s, %) | assembly + other | IPM iterations metric + entropy |");
     println!("|---|---|---|---|---|---|---|---|");
@@ -648,7 +642,7 @@ fn iteration_sections(
     println!("|---|---|---|---|---|---|---|---|");
     let mut points = Vec::new();
     for &q in q_list {
-        // One iteration at the large sizes keeps --full within minutes.
+        // One iteration at the large sizes is enough: they vary least.
         let count = if q > 2000 { 1 } else { iterations };
         let timings = time_iterations::<RigidBody>(rigid, q, 1.0, count, SolverBackend::Dense);
         points.push((q as f64, median(&timings).wall));
@@ -688,7 +682,7 @@ fn iteration_sections(
         let largest = q_list.last().copied().unwrap_or(2000);
         println!(
             "peak RSS of this process so far (largest q = {largest}{}): {mib:.0} MiB",
-            if full {
+            if largest >= 8000 {
                 ""
             } else {
                 "; run with --peak for q = 8000"

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use metriplectic::reproduction::{run, Options, Scheme, Summary};
+use metriplectic::reproduction::{run, Options, Scheme, Solver, Summary};
 use metriplectic_runtime::prelude::*;
 
 #[allow(dead_code)]
@@ -33,6 +33,7 @@ fn reduced_options(out: &Path, batch_size: usize, iterations: usize) -> Options 
         heldout_trajectories: 4,
         samples_per_trajectory: 30,
         scheme: Scheme::Joint,
+        solver: Solver::Dense,
         quiet: true,
         resume: false,
         checkpoint_every: 10,

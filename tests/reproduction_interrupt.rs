@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use metriplectic::reproduction::{run_until, Options, ReproductionError, Scheme};
+use metriplectic::reproduction::{run_until, Options, ReproductionError, Scheme, Solver};
 use metriplectic_runtime::prelude::*;
 
 #[allow(dead_code)]
@@ -32,6 +32,7 @@ fn tiny_options(out: &Path) -> Options {
         heldout_trajectories: 2,
         samples_per_trajectory: 15,
         scheme: Scheme::Joint,
+        solver: Solver::Dense,
         quiet: true,
         resume: false,
         checkpoint_every: 2,

@@ -490,7 +490,10 @@ fn psd_scaling(n: usize, s: &[f64], z: &[f64]) -> Option<PsdScaling> {
     let u = svd.u?;
     let v = svd.v_t?.transpose();
     let lambda: Vec<f64> = svd.singular_values.iter().copied().collect();
-    if lambda.iter().any(|&l| l.is_nan() || l <= 0.0 || !l.is_finite()) {
+    if lambda
+        .iter()
+        .any(|&l| l.is_nan() || l <= 0.0 || !l.is_finite())
+    {
         return None;
     }
     let inv_sqrt = DMatrix::from_diagonal(&DVector::from_iterator(
