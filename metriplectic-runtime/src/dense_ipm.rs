@@ -20,17 +20,21 @@
 //! (c = c₀ + Z y), so the iteration works on y alone. The method is the
 //! standard infeasible path-following scheme with Nesterov–Todd scaling and
 //! Mehrotra's predictor–corrector (as in CVXOPT's `coneqp` without
-//! equalities). It needs no infeasibility detection: the L1 objective is
-//! bounded below and the runtime's cones (box, SOS Gram matrices) are never
-//! empty. Inconsistent equalities are reported as primal infeasible.
+//! equalities). It has no homogeneous embedding and so no infeasibility
+//! certificate: the L1 objective is bounded below and the searches' cones
+//! (box, SOS Gram matrices) are never empty, but a joint step from a metric
+//! outside the SOS tables can be infeasible, and then ends not usable (stall
+//! guard, iteration limit). Inconsistent equalities are reported as primal
+//! infeasible before iterating.
 
 use std::time::Instant;
 
 use clarabel::solver::SupportedConeT;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
-use crate::conic::SolverSettings;
-use crate::conic::{svec_len, ConicOutcome, ConstraintGroup, Regression, SolveStatus, SQRT_2};
+use crate::conic::{
+    svec_len, ConicOutcome, ConstraintGroup, Regression, SolveStatus, SolverSettings, SQRT_2,
+};
 use crate::error::{Error, Result};
 
 /// Step to this fraction of the distance to the cone boundary.
