@@ -3,9 +3,14 @@
 //! A [`MetriplecticSystem`] is a type (usually a unit struct) that carries the
 //! known parts of a generalized metriplectic system — the state, the Poisson
 //! tensor Π(x), the Hamiltonian H(x) — together with the polynomial bases in
-//! which the unknown entropy S(x) and metric K(x) are sought, and straight-line
-//! code that evaluates all of them. Users do not implement it by hand; the
-//! `metriplectic!` macro does, after checking the system symbolically.
+//! which the unknown entropy S(x) and metric K(x) are sought. Users do not
+//! implement it by hand; the `metriplectic!` macro does, after checking the
+//! system symbolically.
+//!
+//! The macro generates only what depends on the system: the tables, H, ∇H,
+//! Π, the monomials and the entropy gradient as straight-line code. Every
+//! loop that is the same for all systems (features, Jacobian, metric value,
+//! the per-sample rows of the searches) is a provided method of the trait.
 //!
 //! # Conventions
 //!
@@ -16,15 +21,14 @@
 //! * Monomials are exponent vectors, one exponent per state variable, listed in
 //!   **graded lexicographic** order: by total degree, then, within a degree,
 //!   larger exponents of earlier variables first. For x = (q, p) at degree ≤ 2:
-//!   `1, q, p, q², q p, p²`.
+//!   `1, q, p, q², q p, p²`. Every basis is a prefix of this one sequence.
 //! * Entropy: S(x) = Σₖ ψₖ φₖ(x) over [`ENTROPY_EXPONENTS`](MetriplecticSystem::ENTROPY_EXPONENTS),
 //!   all monomials of degree 1..=r. The constant monomial is left out: its
 //!   gradient is zero, so its coefficient cannot be identified from (x, ẋ).
 //! * Metric: K(x)ⱼₖ = Σₐ θⱼₖ,ₐ φₐ(x) over [`METRIC_EXPONENTS`](MetriplecticSystem::METRIC_EXPONENTS),
 //!   all monomials of degree 0..=s, with θⱼₖ = θₖⱼ. The coefficient vector θ
 //!   stores the upper-triangle pairs (j ≤ k) in row-major order, each pair a
-//!   contiguous block of `METRIC_EXPONENTS.len()` coefficients: see
-//!   [`metric_pair_index`].
+//!   contiguous block of `METRIC_EXPONENTS.len()` coefficients.
 //!
 //! # Panics
 //!
@@ -54,6 +58,12 @@ pub struct SosTables {
     pub matching: &'static [&'static [(u16, u16)]],
 }
 
+/// One non-zero entry of the entropy Jacobian: `(k, j, a, i)` says
+/// ∂φₖ/∂xⱼ = a · μᵢ(x), where φₖ is entropy monomial k, a = α_kj its exponent
+/// of variable j, and μᵢ is monomial i of the graded-lex sequence (the
+/// monomial x^(α_k − e_j), of degree below the entropy degree).
+pub type JacobianTerm = (u32, u32, u32, u32);
+
 /// A generalized metriplectic system ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)) with
 /// known Π and H and polynomial bases for the unknown S and K.
 ///
@@ -74,6 +84,8 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     const ENTROPY_EXPONENTS: &'static [&'static [u32]];
     /// Metric basis φ_s, graded lexicographic, starting with the constant monomial.
     const METRIC_EXPONENTS: &'static [&'static [u32]];
+    /// The non-zero entries of the entropy Jacobian, row by row.
+    const ENTROPY_JACOBIAN: &'static [JacobianTerm];
     /// SOS tables over the full half-degree basis (all monomials of degree
     /// ≤ s/2). Kept for region-limited certificates, where nothing collapses.
     const SOS_FULL: SosTables;
@@ -96,38 +108,15 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     fn hamiltonian_gradient(x: &[f64], grad: &mut [f64]);
     /// Π(x) into `poisson` (`DIM × DIM`, row-major).
     fn poisson(x: &[f64], poisson: &mut [f64]);
-    /// Entropy features φ_r(x) into `features` (`ENTROPY_EXPONENTS.len()`).
-    fn entropy_features(x: &[f64], features: &mut [f64]);
-    /// Jacobian of the entropy features into `jacobian`
-    /// (`ENTROPY_EXPONENTS.len() × DIM`, row-major: row k is ∇φₖ(x)).
-    fn entropy_jacobian(x: &[f64], jacobian: &mut [f64]);
-    /// Metric features φ_s(x) into `features` (`METRIC_EXPONENTS.len()`).
-    fn metric_features(x: &[f64], features: &mut [f64]);
+    /// The first `out.len()` monomials of the graded-lex sequence at `x`
+    /// (1, x₁, …, xₙ, x₁², …), at most [`monomial_count`](Self::monomial_count).
+    fn monomials(x: &[f64], out: &mut [f64]);
 
-    /// S(x) = Σₖ ψₖ φₖ(x) for entropy coefficients ψ
-    /// (`ENTROPY_EXPONENTS.len()`), without allocating.
-    fn entropy_value(x: &[f64], coefficients: &[f64]) -> f64;
-    /// ∇S(x) = J(x)ᵀ ψ into `grad` (`DIM`), without allocating.
-    fn entropy_gradient(x: &[f64], coefficients: &[f64], grad: &mut [f64]);
-    /// K(x) for metric coefficients θ (`metric_coefficient_count()`) into
-    /// `metric` (`DIM × DIM`, row-major, both triangles), without allocating.
-    fn metric_value(x: &[f64], coefficients: &[f64], metric: &mut [f64]);
-
-    /// Entropy-search rows of one sample, with the metric fixed.
-    ///
-    /// Given K(x) in `metric` (`DIM × DIM`), writes M J(x)ᵀ into `block`
-    /// (`DIM × ENTROPY_EXPONENTS.len()`, row-major) and M ∇H(x) into `drift`
-    /// (`DIM`), where M = Π(x) + K(x). The residual of the sample is then
-    /// ẋ − drift − block · ψ, linear in ψ.
-    fn entropy_block(x: &[f64], metric: &[f64], block: &mut [f64], drift: &mut [f64]);
-
-    /// Metric-search rows of one sample, with the entropy fixed.
-    ///
-    /// Given g = ∇H(x) + ∇S(x) in `gradient` (`DIM`), writes the matrix of the
-    /// linear map θ ↦ K(x; θ) g into `block` (`DIM × metric_coefficient_count()`,
-    /// row-major) and Π(x) g into `drift` (`DIM`). The residual of the sample is
-    /// then ẋ − drift − block · θ, linear in θ.
-    fn metric_block(x: &[f64], gradient: &[f64], block: &mut [f64], drift: &mut [f64]);
+    /// Number of monomials of degree ≤ max(r, s): the longest prefix
+    /// [`monomials`](Self::monomials) computes.
+    fn monomial_count() -> usize {
+        (Self::ENTROPY_EXPONENTS.len() + 1).max(Self::METRIC_EXPONENTS.len())
+    }
 
     /// Number of entropy coefficients p = `ENTROPY_EXPONENTS.len()`.
     fn entropy_coefficient_count() -> usize {
@@ -139,17 +128,216 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     fn metric_coefficient_count() -> usize {
         Self::DIM * (Self::DIM + 1) / 2 * Self::METRIC_EXPONENTS.len()
     }
+
+    /// Number of monomials of degree below r: all that the entropy's
+    /// derivatives read (the monomials [`ENTROPY_JACOBIAN`](Self::ENTROPY_JACOBIAN) indexes).
+    fn derivative_monomial_count() -> usize {
+        let r = Self::ENTROPY_DEGREE;
+        // The entropy basis lists degrees 1..=r in order; drop the degree-r ones.
+        1 + Self::ENTROPY_EXPONENTS
+            .iter()
+            .take_while(|e| e.iter().sum::<u32>() < r)
+            .count()
+    }
+
+    /// Entropy features φ_r(x) into `features` (`ENTROPY_EXPONENTS.len()`).
+    fn entropy_features(x: &[f64], features: &mut [f64]) {
+        let p = Self::entropy_coefficient_count();
+        assert_eq!(features.len(), p, "{}: entropy features", Self::NAME);
+        with_scratch(p + 1, |all| {
+            Self::monomials(x, all);
+            features.copy_from_slice(&all[1..]);
+        });
+    }
+
+    /// Jacobian of the entropy features into `jacobian`
+    /// (`ENTROPY_EXPONENTS.len() × DIM`, row-major: row k is ∇φₖ(x)).
+    fn entropy_jacobian(x: &[f64], jacobian: &mut [f64]) {
+        let n = Self::DIM;
+        assert_eq!(
+            jacobian.len(),
+            Self::entropy_coefficient_count() * n,
+            "{}: entropy Jacobian",
+            Self::NAME
+        );
+        jacobian.fill(0.0);
+        with_scratch(Self::derivative_monomial_count(), |all| {
+            Self::monomials(x, all);
+            for &(k, j, a, i) in Self::ENTROPY_JACOBIAN {
+                jacobian[k as usize * n + j as usize] = f64::from(a) * all[i as usize];
+            }
+        });
+    }
+
+    /// Metric features φ_s(x) into `features` (`METRIC_EXPONENTS.len()`).
+    fn metric_features(x: &[f64], features: &mut [f64]) {
+        assert_eq!(
+            features.len(),
+            Self::METRIC_EXPONENTS.len(),
+            "{}: metric features",
+            Self::NAME
+        );
+        Self::monomials(x, features);
+    }
+
+    /// S(x) = Σₖ ψₖ φₖ(x) for entropy coefficients ψ
+    /// (`ENTROPY_EXPONENTS.len()`), without allocating for paper-sized systems.
+    fn entropy_value(x: &[f64], coefficients: &[f64]) -> f64 {
+        let p = Self::entropy_coefficient_count();
+        assert_eq!(coefficients.len(), p, "{}: entropy coefficients", Self::NAME);
+        with_scratch(p + 1, |all| {
+            Self::monomials(x, all);
+            all[1..].iter().zip(coefficients).map(|(f, c)| f * c).sum()
+        })
+    }
+
+    /// ∇S(x) = J(x)ᵀ ψ into `grad` (`DIM`). The macro overrides this with
+    /// straight-line code; the provided method walks the Jacobian table.
+    fn entropy_gradient(x: &[f64], coefficients: &[f64], grad: &mut [f64]) {
+        assert_eq!(
+            coefficients.len(),
+            Self::entropy_coefficient_count(),
+            "{}: entropy coefficients",
+            Self::NAME
+        );
+        assert_eq!(grad.len(), Self::DIM, "{}: entropy gradient", Self::NAME);
+        grad.fill(0.0);
+        with_scratch(Self::derivative_monomial_count(), |all| {
+            Self::monomials(x, all);
+            for &(k, j, a, i) in Self::ENTROPY_JACOBIAN {
+                grad[j as usize] += coefficients[k as usize] * f64::from(a) * all[i as usize];
+            }
+        });
+    }
+
+    /// K(x) for metric coefficients θ (`metric_coefficient_count()`) into
+    /// `metric` (`DIM × DIM`, row-major, both triangles).
+    fn metric_value(x: &[f64], coefficients: &[f64], metric: &mut [f64]) {
+        let n = Self::DIM;
+        let m = Self::METRIC_EXPONENTS.len();
+        assert_eq!(
+            coefficients.len(),
+            Self::metric_coefficient_count(),
+            "{}: metric coefficients",
+            Self::NAME
+        );
+        assert_eq!(metric.len(), n * n, "{}: metric", Self::NAME);
+        with_scratch(m, |features| {
+            Self::monomials(x, features);
+            let mut pairs = coefficients.chunks_exact(m);
+            for row in 0..n {
+                for column in row..n {
+                    let theta = pairs.next().unwrap_or_default();
+                    let value: f64 = theta.iter().zip(&*features).map(|(t, f)| t * f).sum();
+                    metric[row * n + column] = value;
+                    metric[column * n + row] = value;
+                }
+            }
+        });
+    }
+
+    /// Entropy-search rows of one sample, with the metric fixed.
+    ///
+    /// Given K(x) in `metric` (`DIM × DIM`), writes M J(x)ᵀ into `block`
+    /// (`DIM × ENTROPY_EXPONENTS.len()`, row-major) and M ∇H(x) into `drift`
+    /// (`DIM`), where M = Π(x) + K(x). The residual of the sample is then
+    /// ẋ − drift − block · ψ, linear in ψ.
+    fn entropy_block(x: &[f64], metric: &[f64], block: &mut [f64], drift: &mut [f64]) {
+        let n = Self::DIM;
+        let p = Self::entropy_coefficient_count();
+        assert_eq!(metric.len(), n * n, "{}: metric", Self::NAME);
+        assert_eq!(block.len(), n * p, "{}: entropy block", Self::NAME);
+        assert_eq!(drift.len(), n, "{}: drift", Self::NAME);
+        let derivatives = Self::derivative_monomial_count();
+        with_scratch(n * n + n + derivatives, |scratch| {
+            let (operator, rest) = scratch.split_at_mut(n * n);
+            let (grad_h, all) = rest.split_at_mut(n);
+            // M = Π(x) + K(x)
+            Self::poisson(x, operator);
+            operator.iter_mut().zip(metric).for_each(|(o, k)| *o += k);
+            Self::hamiltonian_gradient(x, grad_h);
+            for (row, out) in drift.iter_mut().enumerate() {
+                *out = dot(&operator[row * n..(row + 1) * n], grad_h);
+            }
+            // block = M J(x)ᵀ, one sparse Jacobian entry at a time.
+            Self::monomials(x, all);
+            block.fill(0.0);
+            for &(k, j, a, i) in Self::ENTROPY_JACOBIAN {
+                let derivative = f64::from(a) * all[i as usize];
+                for row in 0..n {
+                    block[row * p + k as usize] += operator[row * n + j as usize] * derivative;
+                }
+            }
+        });
+    }
+
+    /// Metric-search rows of one sample, with the entropy fixed.
+    ///
+    /// Given g = ∇H(x) + ∇S(x) in `gradient` (`DIM`), writes the matrix of the
+    /// linear map θ ↦ K(x; θ) g into `block` (`DIM × metric_coefficient_count()`,
+    /// row-major) and Π(x) g into `drift` (`DIM`). The residual of the sample is
+    /// then ẋ − drift − block · θ, linear in θ.
+    fn metric_block(x: &[f64], gradient: &[f64], block: &mut [f64], drift: &mut [f64]) {
+        let n = Self::DIM;
+        let m = Self::METRIC_EXPONENTS.len();
+        let width = Self::metric_coefficient_count();
+        assert_eq!(gradient.len(), n, "{}: gradient", Self::NAME);
+        assert_eq!(block.len(), n * width, "{}: metric block", Self::NAME);
+        assert_eq!(drift.len(), n, "{}: drift", Self::NAME);
+        with_scratch(n * n + m, |scratch| {
+            let (poisson, features) = scratch.split_at_mut(n * n);
+            Self::poisson(x, poisson);
+            for (row, out) in drift.iter_mut().enumerate() {
+                *out = dot(&poisson[row * n..(row + 1) * n], gradient);
+            }
+            // K(x; θ) g: θ_jk,a multiplies φ_a g_k in row j and φ_a g_j in row k.
+            Self::monomials(x, features);
+            block.fill(0.0);
+            let mut pair = 0;
+            for row in 0..n {
+                for column in row..n {
+                    for (a, feature) in features.iter().enumerate() {
+                        let coefficient = pair * m + a;
+                        block[row * width + coefficient] += feature * gradient[column];
+                        if row != column {
+                            block[column * width + coefficient] += feature * gradient[row];
+                        }
+                    }
+                    pair += 1;
+                }
+            }
+        });
+    }
 }
 
 /// Position of the upper-triangle pair (j, k) (in either order) among the
-/// n(n+1)/2 pairs of an n×n symmetric matrix, row-major.
-///
-/// The metric coefficients of pair (j, k) occupy
-/// `pair * basis_len .. (pair + 1) * basis_len` in θ.
+/// n(n+1)/2 pairs of an n×n symmetric matrix, row-major: the metric
+/// coefficients of pair (j, k) occupy `pair * basis_len .. (pair + 1) * basis_len` in θ.
 pub fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
     let (j, k) = if j <= k { (j, k) } else { (k, j) };
     // Rows 0..j contribute n, n-1, …, n-j+1 pairs.
     j * dim - j * (j.saturating_sub(1)) / 2 + (k - j)
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Runs `f` on `len` zeroed scratch entries without allocating for the
+/// sizes paper-sized systems need, and on the heap beyond. Tiers keep the
+/// zeroing close to `len`: `len` is usually a constant of the system, so
+/// after inlining only one branch remains.
+#[inline(always)]
+pub(crate) fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    if len <= 64 {
+        f(&mut [0.0; 64][..len])
+    } else if len <= 512 {
+        f(&mut [0.0; 512][..len])
+    } else if len <= 8256 {
+        f(&mut [0.0; 8256][..len])
+    } else {
+        f(&mut vec![0.0; len])
+    }
 }
 
 #[cfg(test)]

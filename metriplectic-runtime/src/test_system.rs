@@ -1,9 +1,9 @@
-//! A hand-written [`MetriplecticSystem`] for the solvers' unit tests, so they
-//! do not depend on the macro: a 2-D canonical oscillator with a quadratic
-//! entropy (degree 2) and a degree-2 metric basis. Generic (slow) table-driven
-//! evaluation; generated code is straight-line instead.
+//! A hand-written [`MetriplecticSystem`] for the unit tests, so they do not
+//! depend on the macro: a 2-D canonical oscillator with a quadratic entropy
+//! (degree 2) and a degree-2 metric basis. Only the system-specific items are
+//! written out; every other method is the trait's provided one.
 
-use crate::system::{metric_pair_index, MetriplecticSystem, SosTables};
+use crate::system::{JacobianTerm, MetriplecticSystem, SosTables};
 
 /// x = (q, p), Π = [[0, 1], [−1, 0]], H = (q² + p²)/2, K = I,
 /// S = 0.3 q − 0.2 p − 0.8 q² + 0.25 q p − 0.6 p².
@@ -17,19 +17,6 @@ const E12: &[u32] = &[1, 1];
 const E22: &[u32] = &[0, 2];
 const E0: &[u32] = &[0, 0];
 
-fn monomial(x: &[f64], e: &[u32]) -> f64 {
-    x.iter().zip(e).map(|(v, &d)| v.powi(d as i32)).product()
-}
-
-fn monomial_derivative(x: &[f64], e: &[u32], var: usize) -> f64 {
-    if e[var] == 0 {
-        return 0.0;
-    }
-    let mut lowered = e.to_vec();
-    lowered[var] -= 1;
-    f64::from(e[var]) * monomial(x, &lowered)
-}
-
 impl MetriplecticSystem for Quadratic2d {
     const NAME: &'static str = "Quadratic2d";
     const DIM: usize = 2;
@@ -38,6 +25,15 @@ impl MetriplecticSystem for Quadratic2d {
     const METRIC_DEGREE: u32 = 2;
     const ENTROPY_EXPONENTS: &'static [&'static [u32]] = &[E1, E2, E11, E12, E22];
     const METRIC_EXPONENTS: &'static [&'static [u32]] = &[E0, E1, E2, E11, E12, E22];
+    // ∂q/∂q = 1, ∂p/∂p = 1, ∂q²/∂q = 2q, ∂qp/∂q = p, ∂qp/∂p = q, ∂p²/∂p = 2p.
+    const ENTROPY_JACOBIAN: &'static [JacobianTerm] = &[
+        (0, 0, 1, 0),
+        (1, 1, 1, 0),
+        (2, 0, 2, 1),
+        (3, 0, 1, 2),
+        (3, 1, 1, 1),
+        (4, 1, 2, 2),
+    ];
     const SOS_FULL: SosTables = SosTables {
         exponents: &[E0, E1, E2],
         matching: &[
@@ -69,88 +65,11 @@ impl MetriplecticSystem for Quadratic2d {
     fn poisson(_x: &[f64], poisson: &mut [f64]) {
         poisson.copy_from_slice(&[0.0, 1.0, -1.0, 0.0]);
     }
-    fn entropy_features(x: &[f64], features: &mut [f64]) {
-        for (f, e) in features.iter_mut().zip(Self::ENTROPY_EXPONENTS) {
-            *f = monomial(x, e);
-        }
-    }
-    fn entropy_jacobian(x: &[f64], jacobian: &mut [f64]) {
-        for (k, e) in Self::ENTROPY_EXPONENTS.iter().enumerate() {
-            for v in 0..Self::DIM {
-                jacobian[k * Self::DIM + v] = monomial_derivative(x, e, v);
-            }
-        }
-    }
-    fn metric_features(x: &[f64], features: &mut [f64]) {
-        for (f, e) in features.iter_mut().zip(Self::METRIC_EXPONENTS) {
-            *f = monomial(x, e);
-        }
-    }
-    fn entropy_value(x: &[f64], coefficients: &[f64]) -> f64 {
-        Self::ENTROPY_EXPONENTS
-            .iter()
-            .zip(coefficients)
-            .map(|(e, c)| c * monomial(x, e))
-            .sum()
-    }
-    fn entropy_gradient(x: &[f64], coefficients: &[f64], grad: &mut [f64]) {
-        for (v, g) in grad.iter_mut().enumerate() {
-            *g = Self::ENTROPY_EXPONENTS
-                .iter()
-                .zip(coefficients)
-                .map(|(e, c)| c * monomial_derivative(x, e, v))
-                .sum();
-        }
-    }
-    fn metric_value(x: &[f64], coefficients: &[f64], metric: &mut [f64]) {
-        let n = Self::DIM;
-        let basis = Self::METRIC_EXPONENTS.len();
-        let mut features = [0.0; 6];
-        Self::metric_features(x, &mut features);
-        for j in 0..n {
-            for k in 0..n {
-                let pair = metric_pair_index(n, j, k);
-                metric[j * n + k] = (0..basis)
-                    .map(|a| coefficients[pair * basis + a] * features[a])
-                    .sum();
-            }
-        }
-    }
-    fn entropy_block(x: &[f64], metric: &[f64], block: &mut [f64], drift: &mut [f64]) {
-        let n = Self::DIM;
-        let p = Self::ENTROPY_EXPONENTS.len();
-        let mut op = [0.0; 4];
-        Self::poisson(x, &mut op);
-        op.iter_mut().zip(metric).for_each(|(o, k)| *o += k);
-        let mut jac = [0.0; 10];
-        Self::entropy_jacobian(x, &mut jac);
-        for j in 0..n {
-            for k in 0..p {
-                block[j * p + k] = (0..n).map(|v| op[j * n + v] * jac[k * n + v]).sum();
-            }
-            drift[j] = (0..n).map(|v| op[j * n + v] * x[v]).sum();
-        }
-    }
-    fn metric_block(x: &[f64], gradient: &[f64], block: &mut [f64], drift: &mut [f64]) {
-        let n = Self::DIM;
-        let basis = Self::METRIC_EXPONENTS.len();
-        let width = Self::metric_coefficient_count();
-        let mut features = [0.0; 6];
-        Self::metric_features(x, &mut features);
-        block.iter_mut().for_each(|b| *b = 0.0);
-        for j in 0..n {
-            for (k, g) in gradient.iter().enumerate() {
-                let pair = metric_pair_index(n, j, k);
-                for (a, f) in features.iter().enumerate().take(basis) {
-                    block[j * width + pair * basis + a] += f * g;
-                }
-            }
-        }
-        let mut op = [0.0; 4];
-        Self::poisson(x, &mut op);
-        for j in 0..n {
-            drift[j] = (0..n).map(|v| op[j * n + v] * gradient[v]).sum();
-        }
+    fn monomials(x: &[f64], out: &mut [f64]) {
+        let (q, p) = (x[0], x[1]);
+        let all = [1.0, q, p, q * q, q * p, p * p];
+        let len = out.len();
+        out.copy_from_slice(&all[..len]);
     }
 }
 
@@ -173,4 +92,59 @@ pub(crate) fn reference_data(count: usize, seed: u64) -> crate::dataset::Dataset
             .unwrap();
     }
     crate::dataset::Dataset::from_flat(2, states, derivatives).unwrap()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The provided methods against the direct formulas of this system.
+    #[test]
+    fn provided_methods_match_direct_formulas() {
+        let x = [0.7, -1.3];
+        let (q, p) = (x[0], x[1]);
+        let psi = [0.3, -0.2, -0.8, 0.25, -0.6];
+        let mut grad = [0.0; 2];
+        Quadratic2d::entropy_gradient(&x, &psi, &mut grad);
+        let expected = [0.3 - 1.6 * q + 0.25 * p, -0.2 + 0.25 * q - 1.2 * p];
+        assert!((grad[0] - expected[0]).abs() < 1e-14 && (grad[1] - expected[1]).abs() < 1e-14);
+        let value = Quadratic2d::entropy_value(&x, &psi);
+        let direct = 0.3 * q - 0.2 * p - 0.8 * q * q + 0.25 * q * p - 0.6 * p * p;
+        assert!((value - direct).abs() < 1e-14);
+        let mut jacobian = [0.0; 10];
+        Quadratic2d::entropy_jacobian(&x, &mut jacobian);
+        assert_eq!(jacobian, [1.0, 0.0, 0.0, 1.0, 2.0 * q, 0.0, p, q, 0.0, 2.0 * p]);
+        // K = [[1 + q, 2p], [2p, 3 q p]] from θ.
+        let mut theta = [0.0; 18];
+        theta[0] = 1.0;
+        theta[1] = 1.0;
+        theta[6 + 2] = 2.0;
+        theta[12 + 4] = 3.0;
+        let mut k = [0.0; 4];
+        Quadratic2d::metric_value(&x, &theta, &mut k);
+        assert_eq!(k, [1.0 + q, 2.0 * p, 2.0 * p, 3.0 * q * p]);
+        // Metric rows: K(x; θ) g for g = (1, 2) equals block · θ.
+        let g = [1.0, 2.0];
+        let (mut block, mut drift) = ([0.0; 36], [0.0; 2]);
+        Quadratic2d::metric_block(&x, &g, &mut block, &mut drift);
+        for row in 0..2 {
+            let from_block: f64 = (0..18).map(|c| block[row * 18 + c] * theta[c]).sum();
+            let direct = k[row * 2] * g[0] + k[row * 2 + 1] * g[1];
+            assert!((from_block - direct).abs() < 1e-14);
+        }
+        assert_eq!(drift, [g[1], -g[0]]);
+        // Entropy rows: M J ψ + M ∇H is the vector field with metric K.
+        let (mut block, mut drift) = ([0.0; 10], [0.0; 2]);
+        Quadratic2d::entropy_block(&x, &k, &mut block, &mut drift);
+        let m = [k[0], 1.0 + k[1], -1.0 + k[2], k[3]];
+        for row in 0..2 {
+            let field: f64 = (0..2)
+                .map(|l| m[row * 2 + l] * (x[l] + grad[l]))
+                .sum();
+            let rows: f64 = drift[row] + (0..5).map(|c| block[row * 5 + c] * psi[c]).sum::<f64>();
+            assert!((field - rows).abs() < 1e-13);
+        }
+        assert_eq!(Quadratic2d::derivative_monomial_count(), 3);
+        assert_eq!(Quadratic2d::monomial_count(), 6);
+    }
 }
