@@ -417,8 +417,8 @@ pub fn emit(system: &System) -> TokenStream {
                 Literal::u32_unsuffixed(j as u32),
                 Literal::u32_unsuffixed(source as u32),
             );
-            let c = float(f64::from(k));
-            jacobian_terms.push(quote!((#row_lit, #j_lit, #c, #src_lit)));
+            let k_lit = Literal::u32_unsuffixed(k);
+            jacobian_terms.push(quote!((#row_lit, #j_lit, #k_lit, #src_lit)));
         }
     }
     // ∇S = J(x)ᵀψ, one sum per variable j of ψ_k · α_kj · x^(α_k − e_j),
@@ -576,7 +576,7 @@ pub fn emit(system: &System) -> TokenStream {
             pub const MONOMIAL_COUNT: usize = #d_lit;
 
             #(#jacobian_terms_doc)*
-            pub const ENTROPY_JACOBIAN_TERMS: &'static [(u32, u32, f64, u32)] = &[#(#jacobian_terms),*];
+            pub const ENTROPY_JACOBIAN_TERMS: &'static [(u32, u32, u32, u32)] = &[#(#jacobian_terms),*];
 
             #(#monomials_doc)*
             pub fn monomials(x: &[f64]) -> [f64; #d_lit] {
@@ -646,6 +646,14 @@ pub fn emit(system: &System) -> TokenStream {
                 poisson.copy_from_slice(&value);
             }
 
+            const ENTROPY_JACOBIAN: &'static [(u32, u32, u32, u32)] = Self::ENTROPY_JACOBIAN_TERMS;
+
+            fn monomials(x: &[f64], out: &mut [f64]) {
+                let all = Self::monomials(x);
+                let len = out.len();
+                out.copy_from_slice(&all[..len]);
+            }
+
             fn entropy_features(x: &[f64], features: &mut [f64]) {
                 features.copy_from_slice(&Self::monomials(x)[1..#entropy_end]);
             }
@@ -692,7 +700,7 @@ pub fn emit(system: &System) -> TokenStream {
                 let features = Self::metric_monomials(x);
                 for row in 0..#n_lit {
                     for column in row..#n_lit {
-                        let pair = ::metriplectic_runtime::system::metric_pair_index(#n_lit, row, column);
+                        let pair = row * #n_lit - row * row.saturating_sub(1) / 2 + (column - row);
                         let theta = &coefficients[pair * #m_lit..(pair + 1) * #m_lit];
                         let value: f64 = theta.iter().zip(&features).map(|(t, f)| t * f).sum();
                         metric[row * #n_lit + column] = value;
@@ -720,7 +728,7 @@ pub fn emit(system: &System) -> TokenStream {
                 let all = Self::entropy_derivative_monomials(x);
                 block.fill(0.0);
                 for &(feature, variable, exponent, lower) in Self::ENTROPY_JACOBIAN_TERMS {
-                    let derivative = exponent * all[lower as usize];
+                    let derivative = f64::from(exponent) * all[lower as usize];
                     for row in 0..#n_lit {
                         block[row * #p_lit + feature as usize] +=
                             operator[row * #n_lit + variable as usize] * derivative;
@@ -742,7 +750,7 @@ pub fn emit(system: &System) -> TokenStream {
                 block.fill(0.0);
                 for row in 0..#n_lit {
                     for column in row..#n_lit {
-                        let pair = ::metriplectic_runtime::system::metric_pair_index(#n_lit, row, column);
+                        let pair = row * #n_lit - row * row.saturating_sub(1) / 2 + (column - row);
                         for (a, feature) in features.iter().enumerate() {
                             let coefficient = pair * #m_lit + a;
                             block[row * #theta_len + coefficient] += feature * gradient[column];

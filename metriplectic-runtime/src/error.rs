@@ -64,13 +64,13 @@ pub enum Error {
     },
     /// Malformed identification data.
     #[error(transparent)]
-    Dataset(#[from] crate::dataset::DatasetError),
+    Dataset(#[from] DatasetError),
     /// A simulation stopped early (step size, step budget, stiffness, NaN).
     #[error(transparent)]
-    Simulation(#[from] crate::simulate::SimulationError),
+    Simulation(#[from] SimulationError),
     /// Malformed trajectory CSV, with line and column.
     #[error(transparent)]
-    Csv(#[from] crate::csv_io::CsvError),
+    Csv(#[from] CsvError),
     /// Invalid configuration or argument.
     #[error("invalid {what}: {reason}")]
     InvalidArgument {
@@ -79,7 +79,7 @@ pub enum Error {
         /// Why it was rejected and what is accepted.
         reason: String,
     },
-    /// A conic problem could not be handed to Clarabel (malformed assembly).
+    /// A problem could not be handed to the solver.
     #[error("solver setup failed: {reason}")]
     Solver {
         /// What went wrong.
@@ -124,7 +124,377 @@ pub enum Error {
     /// A figure could not be made (feature `plot`).
     #[cfg(feature = "plot")]
     #[error(transparent)]
-    Plot(#[from] crate::plot::PlotError),
+    Plot(#[from] PlotError),
+}
+
+/// Errors specific to dataset construction, reported with the sample index and
+/// state column of the first offending value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum DatasetError {
+    /// No samples were given.
+    #[error("dataset is empty: at least one sample (x, ẋ) is required")]
+    Empty,
+    /// The state dimension is zero.
+    #[error("state dimension must be at least 1")]
+    ZeroDimension,
+    /// A flat buffer's length is not a multiple of the dimension.
+    #[error("{what} buffer has {len} values, not a multiple of the state dimension {dim}")]
+    RaggedBuffer {
+        /// "states" or "derivatives".
+        what: &'static str,
+        /// Length of the buffer.
+        len: usize,
+        /// State dimension.
+        dim: usize,
+    },
+    /// States and derivatives disagree in sample count.
+    #[error("{states} states but {derivatives} derivatives: every state needs its derivative")]
+    CountMismatch {
+        /// Number of states.
+        states: usize,
+        /// Number of derivatives.
+        derivatives: usize,
+    },
+    /// One sample has the wrong number of columns.
+    #[error("sample {sample}: {what} has {found} columns, the system has {expected}")]
+    WrongWidth {
+        /// Sample index (0-based).
+        sample: usize,
+        /// "state" or "derivative".
+        what: &'static str,
+        /// Columns expected.
+        expected: usize,
+        /// Columns found.
+        found: usize,
+    },
+    /// A NaN or infinite value.
+    #[error("sample {sample}, {what} column {column}: non-finite value {value}")]
+    NonFinite {
+        /// Sample index (0-based).
+        sample: usize,
+        /// "state" or "derivative".
+        what: &'static str,
+        /// State column (0-based).
+        column: usize,
+        /// The offending value.
+        value: f64,
+    },
+}
+
+
+/// Malformed trajectory CSV. Lines are 1-based with the header on line 1;
+/// columns are 1-based.
+///
+/// ```
+/// use metriplectic_runtime::{read_trajectories_from, CsvError};
+/// use metriplectic_runtime::Error;
+///
+/// let err = read_trajectories_from("t,x\n0,1\n0.1,oops\n".as_bytes(), &["x"]).unwrap_err();
+/// assert!(matches!(err, Error::Csv(CsvError::NotANumber { line: 3, column: 2, .. })));
+/// assert_eq!(err.to_string(), "line 3, column 2 (`x`): `oops` is not a number");
+/// ```
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CsvError {
+    /// The input has no header line.
+    #[error("empty input: expected a header line with the columns {expected}")]
+    NoHeader {
+        /// The columns the system expects.
+        expected: String,
+    },
+    /// The header has no data rows after it.
+    #[error("no data rows after the header (line 1)")]
+    NoRows,
+    /// Required columns are absent.
+    #[error(
+        "line 1: missing column(s) {}; expected columns: {expected}",
+        quoted(missing)
+    )]
+    MissingColumns {
+        /// The missing names.
+        missing: Vec<String>,
+        /// The columns the system expects.
+        expected: String,
+    },
+    /// Columns the system does not know.
+    #[error(
+        "line 1: unknown column(s) {}; expected columns: {expected}",
+        quoted(unknown)
+    )]
+    UnknownColumns {
+        /// The unknown names.
+        unknown: Vec<String>,
+        /// The columns the system expects.
+        expected: String,
+    },
+    /// A column name appears twice.
+    #[error("line 1: column `{name}` appears twice (columns {first} and {second})")]
+    DuplicateColumn {
+        /// The repeated name.
+        name: String,
+        /// First position (1-based).
+        first: usize,
+        /// Second position (1-based).
+        second: usize,
+    },
+    /// Some but not all derivative columns are present.
+    #[error(
+        "line 1: derivative columns must be all present or all absent; found {}, missing {}",
+        quoted(present),
+        quoted(missing)
+    )]
+    PartialDerivatives {
+        /// Derivative columns found.
+        present: Vec<String>,
+        /// Derivative columns missing.
+        missing: Vec<String>,
+    },
+    /// A state name collides with a reserved or derived column name.
+    #[error("state variable `{name}` clashes with the column name `{name}` this format reserves for {reserved_for}; rename the variable")]
+    ReservedName {
+        /// The state name.
+        name: String,
+        /// What the column name is used for.
+        reserved_for: String,
+    },
+    /// A row has the wrong number of cells.
+    #[error("line {line}: {found} cell(s), but the header has {expected} columns")]
+    FieldCount {
+        /// Line number.
+        line: u64,
+        /// Columns in the header.
+        expected: usize,
+        /// Cells found.
+        found: usize,
+    },
+    /// A cell is not a number.
+    #[error("line {line}, column {column} (`{name}`): `{text}` is not a number")]
+    NotANumber {
+        /// Line number.
+        line: u64,
+        /// Column number (1-based).
+        column: usize,
+        /// Column name.
+        name: String,
+        /// The cell's text.
+        text: String,
+    },
+    /// A cell is NaN or infinite.
+    #[error("line {line}, column {column} (`{name}`): non-finite value `{text}` (NaN and infinities are not allowed)")]
+    NonFinite {
+        /// Line number.
+        line: u64,
+        /// Column number (1-based).
+        column: usize,
+        /// Column name.
+        name: String,
+        /// The cell's text.
+        text: String,
+    },
+    /// A trajectory identifier cell is empty.
+    #[error("line {line}, column {column} (`trajectory`): empty trajectory identifier")]
+    EmptyTrajectoryId {
+        /// Line number.
+        line: u64,
+        /// Column number (1-based).
+        column: usize,
+    },
+    /// Time did not strictly increase within a trajectory.
+    #[error("line {line}, column {column} (`t`): time {time} does not come after {previous} on line {previous_line}{}: times must strictly increase within a trajectory", trajectory.as_ref().map(|t| format!(" in trajectory `{t}`")).unwrap_or_default())]
+    NonIncreasingTime {
+        /// Line number.
+        line: u64,
+        /// Column number of `t` (1-based).
+        column: usize,
+        /// The trajectory, when the file has a `trajectory` column.
+        trajectory: Option<String>,
+        /// The earlier time.
+        previous: f64,
+        /// Its line.
+        previous_line: u64,
+        /// The offending time.
+        time: f64,
+    },
+    /// A trajectory's rows are split by rows of another trajectory.
+    #[error("line {line}: trajectory `{id}` resumes after other trajectories (its rows began on line {first_line}); the rows of a trajectory must be contiguous")]
+    SplitTrajectory {
+        /// Line number.
+        line: u64,
+        /// The trajectory.
+        id: String,
+        /// Where its rows began.
+        first_line: u64,
+    },
+    /// The CSV syntax itself is broken (e.g. invalid UTF-8, unclosed quote).
+    #[error("line {line}: malformed CSV: {message}")]
+    Malformed {
+        /// Line number.
+        line: u64,
+        /// The parser's message.
+        message: String,
+    },
+    /// Trajectories handed to the writer do not share a column layout.
+    #[error("cannot write trajectory {index}: {reason}")]
+    Inconsistent {
+        /// Index of the offending trajectory.
+        index: usize,
+        /// What differs.
+        reason: String,
+    },
+}
+
+pub(crate) fn quoted(names: &[String]) -> String {
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+
+
+
+/// Why an integration stopped early.
+///
+/// ```
+/// use metriplectic_runtime::{integrate, IntegratorOptions, OutputTimes, SimulationError};
+/// use metriplectic_runtime::Error;
+///
+/// // ẋ = x² from 1 blows up at t = 1.
+/// let err = integrate(|_t, x, dx| dx[0] = x[0] * x[0], &[1.0], 0.0, 2.0,
+///                     &IntegratorOptions::default(), &OutputTimes::Steps).unwrap_err();
+/// assert!(matches!(err, Error::Simulation(SimulationError::StepSizeUnderflow { .. }
+///                                        | SimulationError::NonFinite { .. })));
+/// ```
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimulationError {
+    /// The step size became too small for the time in floating point.
+    #[error("integration failed at t = {t}: step size underflow (the solution may blow up or be too stiff for an explicit method)")]
+    StepSizeUnderflow {
+        /// Time reached.
+        t: f64,
+    },
+    /// The step budget was exhausted.
+    #[error("integration stopped at t = {t}: more than {max_steps} steps needed (raise `max_steps`, loosen the tolerances or shorten the interval)")]
+    TooManySteps {
+        /// Time reached.
+        t: f64,
+        /// The step budget.
+        max_steps: u32,
+    },
+    /// DOPRI5's stiffness test fired repeatedly.
+    #[error("integration stopped at t = {t}: the problem became stiff (an explicit method needs tiny steps here; start closer to the attractor or shorten the interval)")]
+    Stiff {
+        /// Time reached.
+        t: f64,
+    },
+    /// The vector field or the state became NaN or infinite.
+    #[error("integration failed at t = {t}: non-finite {what} in component {index}")]
+    NonFinite {
+        /// Time where it was first seen.
+        t: f64,
+        /// "state" or "vector field".
+        what: &'static str,
+        /// State component.
+        index: usize,
+    },
+}
+
+
+/// Why a figure could not be made (feature `plot`).
+#[cfg(feature = "plot")]
+#[cfg_attr(docsrs, doc(cfg(feature = "plot")))]
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlotError {
+    /// The output path's extension is neither `.png` nor `.svg`.
+    #[error("{}: unsupported figure format (use a .png or .svg file name)", path.display())]
+    UnsupportedFormat {
+        /// The rejected path.
+        path: PathBuf,
+    },
+    /// There is nothing to draw.
+    #[error("{what} is empty")]
+    Empty {
+        /// What was empty (e.g. "trajectory 3", "series `metric search`").
+        what: String,
+    },
+    /// A state has the wrong number of components for the figure.
+    #[error("trajectory {trajectory}, point {point}: expected {expected} components, got {found}")]
+    PointDimension {
+        /// Index of the trajectory.
+        trajectory: usize,
+        /// Index of the point within the trajectory.
+        point: usize,
+        /// Components the figure needs (2 or 3).
+        expected: usize,
+        /// Components the point has.
+        found: usize,
+    },
+    /// A value is NaN or infinite.
+    #[error("{what}: non-finite value {value} at index {index}")]
+    NonFinite {
+        /// Where (e.g. "trajectory 3", "zero set", "series `entropy search`").
+        what: String,
+        /// Index of the offending point or value.
+        index: usize,
+        /// The value itself.
+        value: f64,
+    },
+    /// Two sequences that must pair up have different lengths.
+    #[error("{what}: {left} times but {right} values")]
+    LengthMismatch {
+        /// Which curve.
+        what: String,
+        /// Length of the first sequence (times).
+        left: usize,
+        /// Length of the second sequence (values).
+        right: usize,
+    },
+    /// A log-scale figure has no positive value to show.
+    #[error("{what}: no positive value, nothing can be drawn on a log scale")]
+    NoPositiveValues {
+        /// The figure's data.
+        what: String,
+    },
+    /// An argument is out of range.
+    #[error("invalid {what}: {reason}")]
+    InvalidArgument {
+        /// The parameter.
+        what: String,
+        /// Why it was rejected and what is accepted.
+        reason: String,
+    },
+    /// The embedded font could not be loaded (a build defect, not user error).
+    #[error("the embedded figure font could not be loaded")]
+    Font,
+    /// plotters failed while drawing.
+    #[error("{}: drawing failed: {message}", path.display())]
+    Drawing {
+        /// The figure being drawn.
+        path: PathBuf,
+        /// plotters' message.
+        message: String,
+    },
+    /// PNG encoding failed.
+    #[error("{}: PNG encoding failed: {message}", path.display())]
+    Encoding {
+        /// The figure being written.
+        path: PathBuf,
+        /// The encoder's message.
+        message: String,
+    },
+    /// The file could not be written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The figure being written.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
 }
 
 /// `Result` with the runtime's [`Error`].

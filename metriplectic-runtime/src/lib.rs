@@ -10,15 +10,14 @@
 //! decreases (dE/dt = ∇Eᵀ K ∇E ≥ 0). The Poisson tensor Π and Hamiltonian H
 //! are known; the entropy S and the metric K are identified from measured
 //! samples (x, ẋ) by alternating a linear program (entropy search) and a
-//! sum-of-squares semidefinite program (metric search). Both are solved by
-//! the runtime's dense interior-point method by default (the L1 auxiliaries
-//! eliminated, one small dense factorisation per iteration) or by Clarabel
-//! ([`SolverBackend`]).
+//! sum-of-squares semidefinite program (metric search). Both run on the
+//! runtime's own dense interior-point method (the L1 auxiliaries eliminated,
+//! one small dense factorisation per iteration); Clarabel is available as a
+//! second backend with the cargo feature `clarabel`.
 //!
 //! A system is declared once with the [`metriplectic!`] macro, which checks it
-//! symbolically at compile time and generates the monomial tables, analytic
-//! gradients and per-sample assembly code as an implementation of
-//! [`MetriplecticSystem`].
+//! symbolically at compile time and generates the monomial tables and
+//! analytic gradients as an implementation of [`MetriplecticSystem`].
 //!
 //! ```
 //! use metriplectic_runtime::prelude::*;
@@ -42,70 +41,98 @@
 //! model.vector_field(&[0.3, -0.2], &mut xdot).unwrap();
 //! assert!(model.free_energy_rate(&[0.3, -0.2]).unwrap() >= 0.0);
 //! ```
+//!
+//! # The public API
+//!
+//! Everything is exported at the crate root; [`prelude`] holds what most
+//! programs need. By layer:
+//!
+//! | layer | items |
+//! | --- | --- |
+//! | system | [`metriplectic!`], [`MetriplecticSystem`], [`SosTables`], [`JacobianTerm`] |
+//! | model | [`Model`] (evaluation, JSON files), [`WriteMode`] |
+//! | data | [`Dataset`], [`Trajectory`], [`read_trajectories`], [`write_trajectories`] (CSV), [`DerivativeMethod`], [`estimate_derivatives`] |
+//! | identify | [`identify`] and its variants, [`IdentifyConfig`], [`IterationScheme`], [`TrustRegion`], [`CheckpointConfig`], [`Identification`], [`History`], [`StopReason`], [`Cost`], [`model_cost`] |
+//! | searches | [`entropy_search`], [`metric_search`], [`joint_step`] with [`SearchOptions`] and [`SearchReport`] |
+//! | solve | [`L1Problem`], [`Regression`], [`Cone`], [`solve_l1`], [`L1Solution`], [`SolverSettings`], [`SolverBackend`], [`SolveStatus`] |
+//! | simulate | [`simulate`], [`integrate`], [`synthesize`], [`free_energy_diagnostics`] and their options |
+//! | plot (feature `plot`) | `phase_portrait_2d`, `trajectories_3d`, `loss_curves`, `free_energy_curves` |
+//! | errors | [`Error`], [`Result`] and the per-layer error enums |
+//!
+//! # Cargo features
+//!
+//! * `plot` (off): PNG/SVG figures of trajectories, losses and free energy.
+//! * `clarabel` (off): Clarabel as [`SolverBackend::Clarabel`]. It links
+//!   BLAS/LAPACK (Debian's OpenBLAS, `libopenblas-dev`) for Clarabel's PSD
+//!   cone; without it the crate needs no system library.
 
-// Link Debian's OpenBLAS for Clarabel's PSD cone (see DESIGN.md, dependency recipe).
+#![cfg_attr(docsrs, feature(doc_cfg))]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+
+// Link Debian's OpenBLAS for Clarabel's PSD cone (feature `clarabel`).
+#[cfg(feature = "clarabel")]
 extern crate blas_src as _;
+#[cfg(feature = "clarabel")]
 extern crate lapack_src as _;
+#[cfg(feature = "clarabel")]
 extern crate openblas_src as _;
 
 // Lets the macro's `::metriplectic_runtime::…` paths resolve inside this crate's own tests.
 extern crate self as metriplectic_runtime;
 
-pub mod checkpoint;
-pub mod conic;
-pub mod cost;
-pub mod csv_io;
-pub mod dataset;
-mod dense_ipm;
-pub mod derivative;
-pub mod diagnostics;
-pub mod entropy_search;
-pub mod error;
-mod file_io;
-pub mod identify;
-pub mod joint_step;
-pub mod metric_search;
-pub mod model;
-mod model_io;
+mod data;
+mod error;
+mod identify;
+mod io;
+mod model;
 #[cfg(feature = "plot")]
-pub mod plot;
-pub mod simulate;
-pub mod synthesize;
-pub mod system;
+mod plot;
+mod simulate;
+mod solve;
+mod system;
 #[cfg(test)]
 mod test_system;
-pub mod trajectory;
 
-pub use checkpoint::CheckpointConfig;
-pub use conic::{L1Formulation, SolveReport, SolveStatus, SolverBackend, SolverSettings};
-pub use cost::{model_cost, Cost};
-pub use csv_io::{read_trajectories, write_trajectories, CsvError, WriteMode};
-pub use dataset::{Dataset, DatasetError};
-pub use derivative::{estimate_derivatives, DerivativeMethod};
-pub use diagnostics::{free_energy_diagnostics, FreeEnergyReport};
-pub use entropy_search::{entropy_search, EntropySearch, EntropySearchOptions};
-pub use error::{Error, Result};
-pub use identify::{
-    identify, identify_resume, identify_resume_with_observer, identify_with_observer, History,
-    Identification, IdentifyConfig, IterationRecord, IterationScheme, JointStepRecord, StepOutcome,
-    StepRecord, StopReason,
+pub use data::{
+    dataset_from_trajectories, differentiate, estimate_all, estimate_derivatives,
+    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
+    Dataset, DerivativeMethod, Trajectory,
 };
-pub use joint_step::{joint_step, JointStep, TrustRegion};
-pub use metric_search::{metric_search, MetricSearch, MetricSearchOptions, SosBasis};
+#[cfg(feature = "plot")]
+pub use error::PlotError;
+pub use error::{CsvError, DatasetError, Error, Result, SimulationError};
+pub use identify::{
+    entropy_search, identify, identify_resume, identify_resume_with_observer,
+    identify_with_observer, joint_step, metric_search, model_cost, CheckpointConfig, Cost,
+    EntropySearch, History, Identification, IdentifyConfig, IterationRecord, IterationScheme,
+    JointStep, JointStepRecord, MetricSearch, SearchOptions, SearchReport, SosBasis,
+    StepOutcome, StepRecord, StopReason, TrustRegion,
+};
+pub use io::WriteMode;
 pub use metriplectic_macros::metriplectic;
 pub use model::Model;
-pub use simulate::{simulate, OutputTimes, Simulation, SimulationError, SimulationOptions};
-pub use synthesize::{synthesize, SynthesisOptions, SyntheticData};
+#[cfg(feature = "plot")]
+#[cfg_attr(docsrs, doc(cfg(feature = "plot")))]
+pub use plot::{free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels};
+pub use simulate::{
+    free_energy_diagnostics, integrate, simulate, synthesize, EnergyCheck, FreeEnergyReport,
+    InitialStates, Integration, IntegrationStats, IntegratorOptions, Noise, OutputTimes,
+    Outliers, SampleTimes, Simulation, SimulationOptions, SynthesisOptions, SyntheticData,
+};
+#[cfg(feature = "clarabel")]
+pub use solve::L1Formulation;
+pub use solve::{
+    solve_l1, Cone, ConstraintId, L1Problem, L1Solution, Regression, SolveStatus, SolverBackend,
+    SolverSettings,
+};
 pub use system::{JacobianTerm, MetriplecticSystem, SosTables};
-pub use trajectory::Trajectory;
 
 /// The names most programs need: `use metriplectic_runtime::prelude::*;`.
 pub mod prelude {
-    pub use crate::dataset::Dataset;
-    pub use crate::error::{Error, Result};
-    pub use crate::metriplectic;
-    pub use crate::model::Model;
-    pub use crate::system::MetriplecticSystem;
+    pub use crate::{
+        identify, metriplectic, Dataset, Error, IdentifyConfig, MetriplecticSystem, Model, Result,
+        Trajectory,
+    };
 }
 
 /// What code generated by `metriplectic!` needs beyond the public API. Not

@@ -313,7 +313,7 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
 /// Position of the upper-triangle pair (j, k) (in either order) among the
 /// n(n+1)/2 pairs of an n×n symmetric matrix, row-major: the metric
 /// coefficients of pair (j, k) occupy `pair * basis_len .. (pair + 1) * basis_len` in θ.
-pub fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
+pub(crate) fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
     let (j, k) = if j <= k { (j, k) } else { (k, j) };
     // Rows 0..j contribute n, n-1, …, n-j+1 pairs.
     j * dim - j * (j.saturating_sub(1)) / 2 + (k - j)

@@ -74,7 +74,7 @@ impl MetriplecticSystem for Quadratic2d {
 }
 
 /// `count` states uniform in [−1.5, 1.5]² with ẋ from the reference model.
-pub(crate) fn reference_data(count: usize, seed: u64) -> crate::dataset::Dataset {
+pub(crate) fn reference_data(count: usize, seed: u64) -> crate::data::Dataset {
     use rand::{Rng, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let model = crate::model::Model::<Quadratic2d>::reference().unwrap();
@@ -91,7 +91,7 @@ pub(crate) fn reference_data(count: usize, seed: u64) -> crate::dataset::Dataset
             )
             .unwrap();
     }
-    crate::dataset::Dataset::from_flat(2, states, derivatives).unwrap()
+    crate::data::Dataset::from_flat(2, states, derivatives).unwrap()
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 
-use metriplectic_runtime::plot::{
+use metriplectic_runtime::{
     free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels, PlotError,
 };
 use metriplectic_runtime::Error;

@@ -26,7 +26,7 @@
 //! says so in a note under the title.
 //!
 //! ```no_run
-//! use metriplectic_runtime::plot::{loss_curves, phase_portrait_2d, Labels};
+//! use metriplectic_runtime::{loss_curves, phase_portrait_2d, Labels};
 //!
 //! # fn main() -> metriplectic_runtime::Result<()> {
 //! // One trajectory spiralling towards the figure eight (cos t, sin 2t).
@@ -68,11 +68,11 @@ mod render;
 mod sphere;
 mod style;
 
-use std::path::PathBuf;
-
 pub use curves::{free_energy_curves, loss_curves};
 pub use phase::phase_portrait_2d;
 pub use sphere::trajectories_3d;
+
+pub use crate::error::PlotError;
 
 /// Titles and axis names of a figure. Each figure uses the fields it needs:
 ///
@@ -106,96 +106,4 @@ impl Default for Labels<'_> {
             reference: "E = 0",
         }
     }
-}
-
-/// Why a figure could not be made.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum PlotError {
-    /// The output path's extension is neither `.png` nor `.svg`.
-    #[error("{}: unsupported figure format (use a .png or .svg file name)", path.display())]
-    UnsupportedFormat {
-        /// The rejected path.
-        path: PathBuf,
-    },
-    /// There is nothing to draw.
-    #[error("{what} is empty")]
-    Empty {
-        /// What was empty (e.g. "trajectory 3", "series `metric search`").
-        what: String,
-    },
-    /// A state has the wrong number of components for the figure.
-    #[error("trajectory {trajectory}, point {point}: expected {expected} components, got {found}")]
-    PointDimension {
-        /// Index of the trajectory.
-        trajectory: usize,
-        /// Index of the point within the trajectory.
-        point: usize,
-        /// Components the figure needs (2 or 3).
-        expected: usize,
-        /// Components the point has.
-        found: usize,
-    },
-    /// A value is NaN or infinite.
-    #[error("{what}: non-finite value {value} at index {index}")]
-    NonFinite {
-        /// Where (e.g. "trajectory 3", "zero set", "series `entropy search`").
-        what: String,
-        /// Index of the offending point or value.
-        index: usize,
-        /// The value itself.
-        value: f64,
-    },
-    /// Two sequences that must pair up have different lengths.
-    #[error("{what}: {left} times but {right} values")]
-    LengthMismatch {
-        /// Which curve.
-        what: String,
-        /// Length of the first sequence (times).
-        left: usize,
-        /// Length of the second sequence (values).
-        right: usize,
-    },
-    /// A log-scale figure has no positive value to show.
-    #[error("{what}: no positive value, nothing can be drawn on a log scale")]
-    NoPositiveValues {
-        /// The figure's data.
-        what: String,
-    },
-    /// An argument is out of range.
-    #[error("invalid {what}: {reason}")]
-    InvalidArgument {
-        /// The parameter.
-        what: String,
-        /// Why it was rejected and what is accepted.
-        reason: String,
-    },
-    /// The embedded font could not be loaded (a build defect, not user error).
-    #[error("the embedded figure font could not be loaded")]
-    Font,
-    /// plotters failed while drawing.
-    #[error("{}: drawing failed: {message}", path.display())]
-    Drawing {
-        /// The figure being drawn.
-        path: PathBuf,
-        /// plotters' message.
-        message: String,
-    },
-    /// PNG encoding failed.
-    #[error("{}: PNG encoding failed: {message}", path.display())]
-    Encoding {
-        /// The figure being written.
-        path: PathBuf,
-        /// The encoder's message.
-        message: String,
-    },
-    /// The file could not be written.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The figure being written.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
-    },
 }

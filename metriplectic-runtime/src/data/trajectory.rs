@@ -4,10 +4,10 @@
 //! measurements holds: states x(tₖ) at strictly increasing times tₖ, with the
 //! state variables named. Derivatives ẋ(tₖ) are present when they were
 //! simulated or measured, and can otherwise be estimated with
-//! [`crate::derivative`]. [`Trajectory::to_dataset`] turns samples with
+//! [`estimate_derivatives`](crate::estimate_derivatives). [`Trajectory::to_dataset`] turns samples with
 //! derivatives into identification data.
 
-use crate::dataset::Dataset;
+use super::Dataset;
 use crate::error::{invalid, Error, Result};
 
 /// States sampled at strictly increasing times, with named state variables
@@ -209,12 +209,12 @@ impl Trajectory {
     /// The samples (x(tₖ), ẋ(tₖ)) as identification data.
     ///
     /// Errors if the trajectory has no derivatives (estimate them first with
-    /// [`crate::derivative::estimate_derivatives`]).
+    /// [`estimate_derivatives`](crate::estimate_derivatives)).
     pub fn to_dataset(&self) -> Result<Dataset> {
         let derivatives = self.derivatives.clone().ok_or_else(|| {
             invalid(
                 "trajectory",
-                "it has no derivatives; estimate them with `derivative::estimate_derivatives` first"
+                "it has no derivatives; estimate them with `estimate_derivatives` first"
                     .to_owned(),
             )
         })?;
@@ -230,7 +230,7 @@ impl Trajectory {
 /// with derivatives).
 ///
 /// ```
-/// use metriplectic_runtime::trajectory::{dataset_from_trajectories, Trajectory};
+/// use metriplectic_runtime::{dataset_from_trajectories, Trajectory};
 ///
 /// let a = Trajectory::new(vec!["x".into()], vec![0.0], vec![1.0], Some(vec![-1.0])).unwrap();
 /// let b = Trajectory::new(vec!["x".into()], vec![0.0], vec![2.0], Some(vec![-2.0])).unwrap();

@@ -26,12 +26,12 @@
 use nalgebra::DMatrix;
 
 use crate::error::{invalid, Error, Result};
-use crate::trajectory::Trajectory;
+use super::Trajectory;
 
 /// How to estimate ẋ from sampled states.
 ///
 /// ```
-/// use metriplectic_runtime::derivative::{differentiate, DerivativeMethod};
+/// use metriplectic_runtime::{differentiate, DerivativeMethod};
 ///
 /// let t: Vec<f64> = (0..50).map(|k| 0.02 * k as f64).collect();
 /// let x: Vec<f64> = t.iter().map(|t| t.sin()).collect();
@@ -144,7 +144,7 @@ pub fn differentiate(times: &[f64], values: &[f64], method: &DerivativeMethod) -
 /// The trajectory with its derivatives replaced by estimates from its states.
 ///
 /// ```
-/// use metriplectic_runtime::{derivative::{estimate_derivatives, DerivativeMethod}, Trajectory};
+/// use metriplectic_runtime::{estimate_derivatives, DerivativeMethod, Trajectory};
 ///
 /// let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
 /// let x: Vec<f64> = t.iter().flat_map(|t| [t.cos(), -t.sin()]).collect();

@@ -8,42 +8,16 @@
 //! min Σᵢ ‖rᵢ(ψ)‖₁   s.t.  −η ≤ ψ ≤ η,
 //! ```
 //!
-//! assembled from the system's per-sample [`entropy_block`](MetriplecticSystem::entropy_block)
-//! and solved by the configured backend (see [`crate::conic`]).
+//! assembled from the system's per-sample
+//! [`entropy_block`](MetriplecticSystem::entropy_block).
 
-use clarabel::solver::SupportedConeT;
-use serde::{Deserialize, Serialize};
-
-use crate::conic::{
-    solve_l1, ConstraintGroup, L1Formulation, Regression, SolveReport, SolverSettings,
-};
-use crate::cost::{check_dataset, model_cost};
-use crate::dataset::Dataset;
-use crate::error::{check_finite, check_len, Error, Result};
+use super::{SearchOptions, SearchReport};
+use crate::data::Dataset;
+use crate::error::{check_finite, check_len, Result};
+use crate::identify::cost::{check_dataset, model_cost};
 use crate::model::Model;
+use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
-
-/// Options of one entropy search.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct EntropySearchOptions {
-    /// Box bound η: every entropy coefficient satisfies |ψₖ| ≤ η.
-    pub eta: f64,
-    /// How the L1 objective is written for Clarabel (Clarabel backend only).
-    pub formulation: L1Formulation,
-    /// Solver settings, including the backend.
-    pub solver: SolverSettings,
-}
-
-impl Default for EntropySearchOptions {
-    fn default() -> Self {
-        Self {
-            eta: 20.0,
-            formulation: L1Formulation::default(),
-            solver: SolverSettings::default(),
-        }
-    }
-}
 
 /// Result of an entropy search.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,82 +27,49 @@ pub struct EntropySearch {
     /// Meaningful only if `report.status` is usable.
     pub coefficients: Vec<f64>,
     /// Status, timings and the recomputed cost of `coefficients`.
-    pub report: SolveReport,
-}
-
-/// Validates η: finite and positive.
-pub(crate) fn check_eta(eta: f64) -> Result<()> {
-    if eta.is_finite() && eta > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::InvalidArgument {
-            what: "eta (coefficient bound)".to_owned(),
-            reason: format!("{eta} is not a finite positive number"),
-        })
-    }
+    pub report: SearchReport,
 }
 
 /// Fits the entropy coefficients ψ to `data` with the metric coefficients θ
 /// (`metric`) held fixed.
 ///
-/// Errors on invalid input (dimension, lengths, non-finite θ, η ≤ 0) or if
-/// the assembled problem is rejected by the solver. Solver trouble (infeasible,
-/// iteration limit, numerical error) is *not* an error: it is reported in
-/// [`SolveReport::status`].
+/// Errors on invalid input (dimension, lengths, non-finite θ, η ≤ 0).
+/// Solver trouble (infeasible, iteration limit, numerical error) is *not*
+/// an error: it is reported in [`SearchReport::status`].
 pub fn entropy_search<S: MetriplecticSystem>(
     data: &Dataset,
     metric: &[f64],
-    options: &EntropySearchOptions,
+    options: &SearchOptions,
 ) -> Result<EntropySearch> {
     check_dataset::<S>(data)?;
     check_len("metric coefficients", metric, S::metric_coefficient_count())?;
     check_finite("metric coefficients", metric)?;
-    check_eta(options.eta)?;
-    options.solver.validate()?;
+    options.validate()?;
 
-    let n = S::DIM;
     let p = S::entropy_coefficient_count();
     let start = std::time::Instant::now();
-    let regression = entropy_regression::<S>(data, metric);
-    let build_seconds = start.elapsed().as_secs_f64();
-
+    let mut problem = L1Problem::new(entropy_regression::<S>(data, metric), 0);
     // Box rows: ψₖ ≤ η and −ψₖ ≤ η.
     let mut entries = Vec::with_capacity(2 * p);
     for k in 0..p {
         entries.push((k, k, 1.0));
         entries.push((p + k, k, -1.0));
     }
-    let bounds = ConstraintGroup {
-        cone: SupportedConeT::NonnegativeConeT(2 * p),
-        entries,
-        rhs: vec![options.eta; 2 * p],
-    };
-    let outcome = solve_l1(
-        &regression,
-        0,
-        &[bounds],
-        options.formulation,
-        &options.solver,
-    )?;
+    problem.constrain(Cone::Nonnegative(2 * p), entries, vec![options.eta; 2 * p])?;
+    let build_seconds = start.elapsed().as_secs_f64();
+    let solution = solve_l1(&problem, &options.solver)?;
 
-    let coefficients: Vec<f64> = outcome
-        .x
+    let coefficients: Vec<f64> = solution
+        .coefficients()
         .iter()
         .map(|&v| v.clamp(-options.eta, options.eta))
         .collect();
     let cost = Model::<S>::new(coefficients.clone(), metric.to_vec())
         .ok()
         .and_then(|model| model_cost(&model, data).ok());
-    debug_assert_eq!(regression.len(), data.len() * n);
     Ok(EntropySearch {
         coefficients,
-        report: SolveReport {
-            status: outcome.status,
-            iterations: outcome.iterations,
-            assembly_seconds: build_seconds + outcome.assembly_seconds,
-            solver_seconds: outcome.solver_seconds,
-            cost,
-        },
+        report: SearchReport::new(&solution, build_seconds, cost),
     })
 }
 
@@ -160,27 +101,23 @@ pub(crate) fn entropy_regression<S: MetriplecticSystem>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conic::SolverBackend;
+    use crate::error::Error;
     use crate::model::identity_metric;
+    use crate::solve::tests::backends;
     use crate::test_system::{reference_data, Quadratic2d};
+    use crate::{SolveStatus, SolverSettings};
 
     #[test]
     fn recovers_the_reference_entropy_with_zero_cost() {
         let data = reference_data(40, 1);
         let truth = Quadratic2d::REFERENCE_ENTROPY.unwrap();
-        for (backend, formulation) in [
-            (SolverBackend::Clarabel, L1Formulation::Slack),
-            (SolverBackend::Clarabel, L1Formulation::ExplicitResidual),
-            (SolverBackend::Clarabel, L1Formulation::Split),
-            (SolverBackend::Dense, L1Formulation::Split),
-        ] {
-            let options = EntropySearchOptions {
-                formulation,
+        for backend in backends() {
+            let options = SearchOptions {
                 solver: SolverSettings {
                     backend,
                     ..SolverSettings::default()
                 },
-                ..EntropySearchOptions::default()
+                ..SearchOptions::default()
             };
             let fit = entropy_search::<Quadratic2d>(
                 &data,
@@ -188,7 +125,7 @@ mod tests {
                 &options,
             )
             .unwrap();
-            assert_eq!(fit.report.status, crate::conic::SolveStatus::Solved);
+            assert_eq!(fit.report.status, SolveStatus::Solved);
             let error = fit
                 .coefficients
                 .iter()
@@ -196,14 +133,8 @@ mod tests {
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
             let cost = fit.report.cost.unwrap();
-            assert!(
-                error < 1e-7,
-                "{backend:?} {formulation:?}: max coefficient error {error}"
-            );
-            assert!(
-                cost.per_component < 1e-7,
-                "{backend:?} {formulation:?}: {cost:?}"
-            );
+            assert!(error < 1e-7, "{backend:?}: max coefficient error {error}");
+            assert!(cost.per_component < 1e-7, "{backend:?}: {cost:?}");
         }
     }
 
@@ -211,9 +142,9 @@ mod tests {
     fn box_bound_is_enforced() {
         // With η below the largest true coefficient (0.8) the fit must clip.
         let data = reference_data(30, 2);
-        let options = EntropySearchOptions {
+        let options = SearchOptions {
             eta: 0.5,
-            ..EntropySearchOptions::default()
+            ..SearchOptions::default()
         };
         let fit =
             entropy_search::<Quadratic2d>(&data, &identity_metric::<Quadratic2d>(1.0), &options)
@@ -227,16 +158,16 @@ mod tests {
         let data = reference_data(5, 3);
         let metric = identity_metric::<Quadratic2d>(1.0);
         for eta in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            let options = EntropySearchOptions {
+            let options = SearchOptions {
                 eta,
-                ..EntropySearchOptions::default()
+                ..SearchOptions::default()
             };
             assert!(matches!(
                 entropy_search::<Quadratic2d>(&data, &metric, &options),
                 Err(Error::InvalidArgument { .. })
             ));
         }
-        let options = EntropySearchOptions::default();
+        let options = SearchOptions::default();
         assert!(matches!(
             entropy_search::<Quadratic2d>(&data, &metric[1..], &options),
             Err(Error::DimensionMismatch { .. })

@@ -1,11 +1,11 @@
 //! Checkpoints of a long identification run, and resuming from them.
 //!
-//! With [`IdentifyConfig::checkpoint`] set, [`crate::identify`] saves the
+//! With [`IdentifyConfig::checkpoint`] set, [`identify`](crate::identify) saves the
 //! run's full state every [`CheckpointConfig::every`] iterations and when it
 //! stops: the current model, the history so far, the position of the
 //! minibatch generator, the trust radius of the joint step, the failure
 //! counters, and a fingerprint of the system, the data and the
-//! configuration. [`crate::identify::identify_resume`] continues from such a
+//! configuration. [`identify_resume`](crate::identify_resume) continues from such a
 //! file exactly where the run left off, so with the same seed the resumed
 //! run's history equals an uninterrupted run's.
 //!
@@ -20,14 +20,16 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::dataset::Dataset;
+use super::config::IdentifyConfig;
+use super::history::{History, StopReason};
+use super::state::RunState;
+use crate::data::Dataset;
 use crate::error::{Error, Result};
-use crate::file_io::{read_capped, write_atomic};
-use crate::identify::{History, IdentifyConfig, RunState, StopReason};
+use crate::io::{read_capped, write_atomic};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
-/// Where and how often [`crate::identify`] saves checkpoints.
+/// Where and how often [`identify`](crate::identify) saves checkpoints.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CheckpointConfig {
     /// The checkpoint file (replaced at every save). Its directory must exist.
@@ -71,7 +73,8 @@ impl CheckpointConfig {
 /// Format tag written into every checkpoint.
 const FORMAT: &str = "metriplectic-checkpoint";
 /// Version of the checkpoint layout.
-const VERSION: u32 = 1;
+/// Version 2: the configuration holds one `search` options block.
+const VERSION: u32 = 2;
 
 /// What a checkpoint was taken of: a resumed run must match it.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

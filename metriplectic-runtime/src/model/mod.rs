@@ -7,8 +7,10 @@
 use std::fmt;
 use std::marker::PhantomData;
 
+mod file;
+
 use crate::error::{check_finite, check_len, Error, Result};
-use crate::system::MetriplecticSystem;
+use crate::system::{with_scratch, MetriplecticSystem};
 
 /// Entropy and metric coefficients of a system `S`.
 ///
@@ -91,7 +93,7 @@ impl<S: MetriplecticSystem> Model<S> {
         &self.entropy
     }
 
-    /// Metric coefficients θ, laid out as documented on [`crate::system`].
+    /// Metric coefficients θ, laid out as documented on [`MetriplecticSystem`].
     pub fn metric_coefficients(&self) -> &[f64] {
         &self.metric
     }
@@ -198,25 +200,8 @@ impl<S: MetriplecticSystem> Model<S> {
     }
 }
 
-/// Runs `f` on `len` zeroed scratch entries without allocating for the
-/// sizes evaluation needs (n + 2n² ≤ 8256 for the macro's n ≤ 64), and on
-/// the heap beyond. Tiers keep the zeroing close to `len`: `len` is a
-/// constant of the system, so after inlining only one branch remains.
-#[inline(always)]
-fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
-    if len <= 64 {
-        f(&mut [0.0; 64][..len])
-    } else if len <= 512 {
-        f(&mut [0.0; 512][..len])
-    } else if len <= 8256 {
-        f(&mut [0.0; 8256][..len])
-    } else {
-        f(&mut vec![0.0; len])
-    }
-}
-
 /// θ of the constant metric K = c·I for system `S`.
-pub fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {
+pub(crate) fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {
     let n = S::DIM;
     let basis = S::METRIC_EXPONENTS.len();
     let mut theta = vec![0.0; S::metric_coefficient_count()];

@@ -28,17 +28,16 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
-use crate::dataset::Dataset;
+use crate::data::{dataset_from_trajectories, Dataset, Trajectory};
 use crate::error::{invalid, Result};
 use crate::model::Model;
-use crate::simulate::{simulate, IntegratorOptions, OutputTimes, SimulationOptions};
+use super::{simulate, IntegratorOptions, OutputTimes, SimulationOptions};
 use crate::system::MetriplecticSystem;
-use crate::trajectory::{dataset_from_trajectories, Trajectory};
 
 /// Distribution of the initial states.
 ///
 /// ```
-/// use metriplectic_runtime::synthesize::InitialStates;
+/// use metriplectic_runtime::InitialStates;
 ///
 /// let square = InitialStates::cube(2, 1.5); // uniform in [−1.5, 1.5]²
 /// let ball = InitialStates::Ball { center: vec![0.0; 3], radius: 2.0 };
@@ -127,7 +126,7 @@ impl InitialStates {
 /// When each trajectory is sampled (times from its start, t = 0).
 ///
 /// ```
-/// use metriplectic_runtime::synthesize::SampleTimes;
+/// use metriplectic_runtime::SampleTimes;
 ///
 /// let grid = SampleTimes::Uniform { interval: 0.01 };
 /// let log = SampleTimes::LogUniform { count: 200, first: 1e-3 };
@@ -155,7 +154,7 @@ pub enum SampleTimes {
 /// Additive Gaussian measurement noise (absolute standard deviations; 0 = none).
 ///
 /// ```
-/// use metriplectic_runtime::synthesize::Noise;
+/// use metriplectic_runtime::Noise;
 /// let noise = Noise { state_std: 1e-3, derivative_std: 1e-2 };
 /// # let _ = noise;
 /// ```
@@ -174,7 +173,7 @@ pub struct Noise {
 /// every component of ẋ. Held-out samples are never corrupted.
 ///
 /// ```
-/// use metriplectic_runtime::synthesize::Outliers;
+/// use metriplectic_runtime::Outliers;
 /// let outliers = Outliers { fraction: 0.05, magnitude: 10.0 };
 /// # let _ = outliers;
 /// ```
@@ -189,7 +188,7 @@ pub struct Outliers {
 /// What to synthesise.
 ///
 /// ```
-/// use metriplectic_runtime::synthesize::{InitialStates, SampleTimes, SynthesisOptions};
+/// use metriplectic_runtime::{InitialStates, SampleTimes, SynthesisOptions};
 ///
 /// let options = SynthesisOptions {
 ///     trajectories: 20,
@@ -248,7 +247,7 @@ impl SynthesisOptions {
 ///
 /// ```
 /// # use metriplectic_runtime::prelude::*;
-/// # use metriplectic_runtime::synthesize::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
+/// # use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
 /// # metriplectic! {
 /// #     pub struct Decay;
 /// #     state (x, y);

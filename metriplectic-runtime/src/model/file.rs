@@ -12,8 +12,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::file_io::read_capped;
-use crate::model::Model;
+use crate::io::read_capped;
+use super::Model;
 use crate::system::MetriplecticSystem;
 
 /// Format tag written into every model file.
@@ -203,7 +203,7 @@ impl<S: MetriplecticSystem> Model<S> {
 #[cfg(test)]
 mod tests {
     use crate::error::Error;
-    use crate::model::Model;
+    use super::Model;
     use crate::test_system::Quadratic2d;
 
     #[test]

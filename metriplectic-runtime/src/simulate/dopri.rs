@@ -1,92 +1,25 @@
-//! Simulation: integrate ẋ = (Π + K)(∇H + ∇S) for a [`Model`].
-//!
-//! The integrator is the Dormand–Prince 5(4) method of the `ode_solvers`
-//! crate (Hairer's DOPRI5: embedded error estimate, PI step-size controller,
-//! stiffness detection, 4th-order dense output). Outputs can be the accepted
-//! steps, a fixed interval, or arbitrary times (evaluated with the dense
-//! output, so they do not shorten the integrator's steps).
+//! Integration of ẋ = f(t, x) with the Dormand–Prince 5(4) method of the
+//! `ode_solvers` crate (Hairer's DOPRI5: embedded error estimate, PI
+//! step-size controller, stiffness detection, 4th-order dense output).
+//! Outputs can be the accepted steps, a fixed interval, or arbitrary times
+//! (evaluated with the dense output, so they do not shorten the
+//! integrator's steps).
 //!
 //! Failures are errors, never panics: step-size underflow, too many steps,
 //! detected stiffness and non-finite values are reported as
 //! [`SimulationError`] with the time where they happened.
-//!
-//! Along every simulated trajectory of a model with K ⪰ 0 the free energy
-//! E = H + S must not decrease (dE/dt = ∇Eᵀ K ∇E ≥ 0). [`simulate`] reports
-//! E at each output and an [`EnergyCheck`]: between consecutive outputs k and
-//! k+1, a decrease counts as a violation only if it exceeds
-//!
-//! ```text
-//! τₖ = factor · (atol·√n + rtol·max(‖xₖ‖, ‖xₖ₊₁‖)) · max(‖∇E(xₖ)‖, ‖∇E(xₖ₊₁)‖),
-//! ```
-//!
-//! the first-order change of E caused by a state error of the size the
-//! integrator controls (each component's local error is kept below
-//! atol + rtol·|xᵢ|), plus the worst-case rounding error of evaluating E in
-//! floating point at both ends, (p + r)·ε·(|H(x)| + Σₖ|ψₖ φₖ(x)|) with p
-//! entropy terms of degree ≤ r (near the zero set ∇E → 0 and only rounding
-//! is left). `factor` is [`SimulationOptions::energy_tolerance_factor`].
 
 use std::cell::Cell;
 
 use ode_solvers::dop_shared::{IntegrationError, OutputType, System};
 use ode_solvers::{continuous_output_model::ContinuousOutputModel, DVector, Dopri5};
 
-use crate::error::{invalid, Result};
-use crate::model::Model;
-use crate::system::MetriplecticSystem;
-use crate::trajectory::Trajectory;
-
-/// Why an integration stopped early.
-///
-/// ```
-/// use metriplectic_runtime::simulate::{integrate, IntegratorOptions, OutputTimes, SimulationError};
-/// use metriplectic_runtime::Error;
-///
-/// // ẋ = x² from 1 blows up at t = 1.
-/// let err = integrate(|_t, x, dx| dx[0] = x[0] * x[0], &[1.0], 0.0, 2.0,
-///                     &IntegratorOptions::default(), &OutputTimes::Steps).unwrap_err();
-/// assert!(matches!(err, Error::Simulation(SimulationError::StepSizeUnderflow { .. }
-///                                        | SimulationError::NonFinite { .. })));
-/// ```
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum SimulationError {
-    /// The step size became too small for the time in floating point.
-    #[error("integration failed at t = {t}: step size underflow (the solution may blow up or be too stiff for an explicit method)")]
-    StepSizeUnderflow {
-        /// Time reached.
-        t: f64,
-    },
-    /// The step budget was exhausted.
-    #[error("integration stopped at t = {t}: more than {max_steps} steps needed (raise `max_steps`, loosen the tolerances or shorten the interval)")]
-    TooManySteps {
-        /// Time reached.
-        t: f64,
-        /// The step budget.
-        max_steps: u32,
-    },
-    /// DOPRI5's stiffness test fired repeatedly.
-    #[error("integration stopped at t = {t}: the problem became stiff (an explicit method needs tiny steps here; start closer to the attractor or shorten the interval)")]
-    Stiff {
-        /// Time reached.
-        t: f64,
-    },
-    /// The vector field or the state became NaN or infinite.
-    #[error("integration failed at t = {t}: non-finite {what} in component {index}")]
-    NonFinite {
-        /// Time where it was first seen.
-        t: f64,
-        /// "state" or "vector field".
-        what: &'static str,
-        /// State component.
-        index: usize,
-    },
-}
+use crate::error::{invalid, Result, SimulationError};
 
 /// Error control and budget of the integrator.
 ///
 /// ```
-/// use metriplectic_runtime::simulate::IntegratorOptions;
+/// use metriplectic_runtime::IntegratorOptions;
 ///
 /// let options = IntegratorOptions { rtol: 1e-8, atol: 1e-10, ..IntegratorOptions::default() };
 /// assert_eq!(options.max_steps, 100_000);
@@ -117,7 +50,7 @@ impl Default for IntegratorOptions {
 /// Where the solution is reported.
 ///
 /// ```
-/// use metriplectic_runtime::simulate::OutputTimes;
+/// use metriplectic_runtime::OutputTimes;
 ///
 /// let every_tenth = OutputTimes::Interval(0.1);
 /// let chosen = OutputTimes::Times(vec![0.0, 0.01, 0.1, 1.0]);
@@ -135,39 +68,10 @@ pub enum OutputTimes {
     Times(Vec<f64>),
 }
 
-/// Options of [`simulate`].
-///
-/// ```
-/// use metriplectic_runtime::simulate::{OutputTimes, SimulationOptions};
-///
-/// let options = SimulationOptions { output: OutputTimes::Interval(0.05), ..Default::default() };
-/// assert_eq!(options.energy_tolerance_factor, 10.0);
-/// ```
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimulationOptions {
-    /// Error control of the integrator.
-    pub integrator: IntegratorOptions,
-    /// Output times.
-    pub output: OutputTimes,
-    /// Safety factor of the free-energy monotonicity tolerance (see the
-    /// [module documentation](self)); must be ≥ 0.
-    pub energy_tolerance_factor: f64,
-}
-
-impl Default for SimulationOptions {
-    fn default() -> Self {
-        Self {
-            integrator: IntegratorOptions::default(),
-            output: OutputTimes::default(),
-            energy_tolerance_factor: 10.0,
-        }
-    }
-}
-
 /// Work done by the integrator.
 ///
 /// ```
-/// use metriplectic_runtime::simulate::{integrate, IntegratorOptions, OutputTimes};
+/// use metriplectic_runtime::{integrate, IntegratorOptions, OutputTimes};
 ///
 /// let sol = integrate(|_t, x, dx| dx[0] = -x[0], &[1.0], 0.0, 1.0,
 ///                     &IntegratorOptions::default(), &OutputTimes::Steps).unwrap();
@@ -187,7 +91,7 @@ pub struct IntegrationStats {
 /// The output of [`integrate`]: times and row-major states.
 ///
 /// ```
-/// use metriplectic_runtime::simulate::{integrate, IntegratorOptions, OutputTimes};
+/// use metriplectic_runtime::{integrate, IntegratorOptions, OutputTimes};
 ///
 /// // ẋ = −x from x(0) = 1.
 /// let sol = integrate(|_t, x, dx| dx[0] = -x[0], &[1.0], 0.0, 1.0,
@@ -195,7 +99,7 @@ pub struct IntegrationStats {
 /// assert!((sol.states[0] - (-1.0f64).exp()).abs() < 1e-6);
 /// ```
 #[derive(Debug, Clone, PartialEq)]
-pub struct Solution {
+pub struct Integration {
     /// Output times.
     pub times: Vec<f64>,
     /// States at the output times, row-major.
@@ -204,142 +108,11 @@ pub struct Solution {
     pub stats: IntegrationStats,
 }
 
-/// Result of the free-energy monotonicity check of one simulated trajectory
-/// (see the [module documentation](self) for the tolerance).
-///
-/// ```
-/// use metriplectic_runtime::simulate::EnergyCheck;
-///
-/// let check = EnergyCheck { steps: 10, violations: 0, largest_decrease: 0.0,
-///                           largest_decrease_ratio: 0.0, worst_step: None };
-/// assert!(check.is_non_decreasing());
-/// ```
-#[derive(Debug, Clone, PartialEq)]
-pub struct EnergyCheck {
-    /// Number of consecutive output pairs checked.
-    pub steps: usize,
-    /// Pairs where E decreased by more than the tolerance τₖ.
-    pub violations: usize,
-    /// Largest decrease E(xₖ) − E(xₖ₊₁) seen (0 if E never decreased).
-    pub largest_decrease: f64,
-    /// Largest ratio of a decrease to its tolerance τₖ (0 if E never decreased).
-    pub largest_decrease_ratio: f64,
-    /// Output index k of the worst pair, if E ever decreased.
-    pub worst_step: Option<usize>,
-}
-
-impl EnergyCheck {
-    /// `true` if E was non-decreasing within the tolerance everywhere.
-    pub fn is_non_decreasing(&self) -> bool {
-        self.violations == 0
-    }
-}
-
-/// A simulated trajectory with its free energy.
-///
-/// ```
-/// # use metriplectic_runtime::prelude::*;
-/// # use metriplectic_runtime::simulate::{simulate, SimulationOptions};
-/// # metriplectic! {
-/// #     pub struct Decay;
-/// #     state (x, y);
-/// #     poisson = [[0, 1], [-1, 0]];
-/// #     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
-/// #     entropy degree 2;
-/// #     metric degree 0;
-/// #     reference { entropy = -(x^2 + y^2); metric = [[1, 0], [0, 1]]; }
-/// # }
-/// let model = Model::<Decay>::reference().unwrap();
-/// let sim = simulate(&model, &[1.0, 0.0], 0.0, 2.0, &SimulationOptions::default()).unwrap();
-/// assert!(sim.energy.is_non_decreasing());
-/// assert_eq!(sim.free_energy.len(), sim.trajectory.len());
-/// ```
-#[derive(Debug, Clone, PartialEq)]
-pub struct Simulation {
-    /// Times, states and the exact vector field ẋ = f(x) at each output.
-    pub trajectory: Trajectory,
-    /// E(x) at each output.
-    pub free_energy: Vec<f64>,
-    /// Monotonicity of E along the trajectory.
-    pub energy: EnergyCheck,
-    /// Integrator statistics.
-    pub stats: IntegrationStats,
-}
-
-/// Simulates `model` from `x0` over [t0, t_end] (t_end > t0).
-///
-/// The trajectory carries the model's exact vector field at every output
-/// state as its derivatives, and its state names are `S::STATE_NAMES`.
-pub fn simulate<S: MetriplecticSystem>(
-    model: &Model<S>,
-    x0: &[f64],
-    t0: f64,
-    t_end: f64,
-    options: &SimulationOptions,
-) -> Result<Simulation> {
-    crate::error::check_len("initial state", x0, S::DIM)?;
-    let factor = options.energy_tolerance_factor;
-    if !(factor.is_finite() && factor >= 0.0) {
-        return Err(invalid(
-            "energy_tolerance_factor",
-            format!("{factor}: must be finite and ≥ 0"),
-        ));
-    }
-    let solution = integrate(
-        |_t, x, dx| model.vector_field_unchecked(x, dx),
-        x0,
-        t0,
-        t_end,
-        &options.integrator,
-        &options.output,
-    )?;
-    let n = S::DIM;
-    let count = solution.times.len();
-    let mut derivatives = vec![0.0; count * n];
-    let mut free_energy = Vec::with_capacity(count);
-    let mut gradient_norms = Vec::with_capacity(count);
-    let mut rounding = Vec::with_capacity(count);
-    let mut grad = vec![0.0; n];
-    let mut features = vec![0.0; S::entropy_coefficient_count()];
-    let terms = (S::entropy_coefficient_count() + S::ENTROPY_DEGREE as usize) as f64;
-    for (k, x) in solution.states.chunks_exact(n).enumerate() {
-        model.vector_field_unchecked(x, &mut derivatives[k * n..(k + 1) * n]);
-        free_energy.push(model.free_energy(x)?);
-        model.free_energy_gradient_unchecked(x, &mut grad);
-        gradient_norms.push(norm(&grad));
-        S::entropy_features(x, &mut features);
-        let magnitude = S::hamiltonian(x).abs()
-            + features
-                .iter()
-                .zip(model.entropy_coefficients())
-                .map(|(f, c)| (f * c).abs())
-                .sum::<f64>();
-        rounding.push(terms * f64::EPSILON * magnitude);
-    }
-    let energy = check_energy(
-        &free_energy,
-        &gradient_norms,
-        &rounding,
-        &solution.states,
-        n,
-        &options.integrator,
-        factor,
-    );
-    let names = S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect();
-    let trajectory = Trajectory::new(names, solution.times, solution.states, Some(derivatives))?;
-    Ok(Simulation {
-        trajectory,
-        free_energy,
-        energy,
-        stats: solution.stats,
-    })
-}
-
 /// Integrates ẋ = f(t, x) from `x0` over [t0, t_end] (t_end > t0) with
 /// DOPRI5, reporting the solution at `output`.
 ///
 /// `f(t, x, dx)` writes the derivative into `dx`. This is the code path
-/// [`simulate`] uses; it is public so that any ODE can be integrated and
+/// [`simulate`](crate::simulate) uses; it is public so that any ODE can be integrated and
 /// checked with the same settings.
 pub fn integrate<F>(
     f: F,
@@ -348,7 +121,7 @@ pub fn integrate<F>(
     t_end: f64,
     options: &IntegratorOptions,
     output: &OutputTimes,
-) -> Result<Solution>
+) -> Result<Integration>
 where
     F: Fn(f64, &[f64], &mut [f64]),
 {
@@ -449,7 +222,7 @@ where
             }
         }
     }
-    Ok(Solution {
+    Ok(Integration {
         times,
         states,
         stats,
@@ -650,58 +423,6 @@ fn validate(
     }
     Ok(())
 }
-
-/// Counts decreases of E beyond the integrator-tied tolerance τₖ.
-fn check_energy(
-    energy: &[f64],
-    gradient_norms: &[f64],
-    rounding: &[f64],
-    states: &[f64],
-    n: usize,
-    options: &IntegratorOptions,
-    factor: f64,
-) -> EnergyCheck {
-    let state_norms: Vec<f64> = states.chunks_exact(n).map(norm).collect();
-    let mut check = EnergyCheck {
-        steps: energy.len().saturating_sub(1),
-        violations: 0,
-        largest_decrease: 0.0,
-        largest_decrease_ratio: 0.0,
-        worst_step: None,
-    };
-    for k in 0..check.steps {
-        let decrease = energy[k] - energy[k + 1];
-        if decrease <= 0.0 {
-            continue;
-        }
-        let error_scale = options.atol * (n as f64).sqrt()
-            + options.rtol * state_norms[k].max(state_norms[k + 1]);
-        let tolerance = factor * error_scale * gradient_norms[k].max(gradient_norms[k + 1])
-            + rounding[k]
-            + rounding[k + 1];
-        let ratio = if tolerance > 0.0 {
-            decrease / tolerance
-        } else {
-            f64::INFINITY
-        };
-        if decrease > tolerance {
-            check.violations += 1;
-        }
-        if decrease > check.largest_decrease {
-            check.largest_decrease = decrease;
-        }
-        if ratio > check.largest_decrease_ratio {
-            check.largest_decrease_ratio = ratio;
-            check.worst_step = Some(k);
-        }
-    }
-    check
-}
-
-fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

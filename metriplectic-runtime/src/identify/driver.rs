@@ -3,7 +3,7 @@
 //!
 //! Each iteration runs the metric search with the entropy fixed, then the
 //! entropy search with the metric fixed, on the same batch. A step replaces
-//! the current model only if its solve ended usable ([`SolveStatus::is_usable`]),
+//! the current model only if its solve ended usable ([`SolveStatus::is_usable`](crate::SolveStatus::is_usable)),
 //! its coefficients are finite, and its cost **on the same batch**, recomputed
 //! from the coefficients, is not larger than the current model's. That is the
 //! hypothesis of the paper's Theorem 1, so with the full batch the cost is
@@ -15,7 +15,7 @@
 //! [`IterationScheme::Alternating`] (the default) is the paper's algorithm:
 //! metric search, then entropy search. [`IterationScheme::AlternatingThenJoint`]
 //! adds, on the same batch, a joint linearised step in both blocks inside an
-//! adaptive trust region ([`crate::joint_step`]), accepted under the same
+//! adaptive trust region ([`joint_step`]), accepted under the same
 //! rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
 //! optimal, the pair not jointly stationary); the joint step removes that.
 //!
@@ -34,360 +34,29 @@
 //! # Checkpoints
 //!
 //! With [`IdentifyConfig::checkpoint`] set, the run's full state is saved
-//! atomically every few iterations and when it stops
-//! ([`crate::checkpoint`]); [`identify_resume`] continues it, with the
-//! same history an uninterrupted run would have had.
+//! atomically every few iterations and when it stops; [`identify_resume`]
+//! continues it, with the same history an uninterrupted run would have had.
 
-use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::Path;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
-pub use crate::checkpoint::CheckpointConfig;
-use crate::conic::{L1Formulation, SolveReport, SolveStatus, SolverSettings};
-use crate::cost::{check_dataset, model_cost, Cost};
-use crate::dataset::Dataset;
-use crate::entropy_search::{check_eta, entropy_search, EntropySearchOptions};
-use crate::error::{check_finite, check_len, Error, Result};
-use crate::joint_step::{joint_step, TrustRegion};
-use crate::metric_search::{metric_search, MetricSearchOptions, SosBasis};
+
+use super::checkpoint;
+use super::config::{IdentifyConfig, IterationScheme};
+use super::cost::{check_dataset, model_cost, Cost};
+use super::history::{
+    History, IterationRecord, JointStepRecord, StepOutcome, StepRecord, StopReason,
+};
+use super::search::{entropy_search, joint_step, metric_search, SearchReport};
+use super::state::RunState;
+use crate::data::Dataset;
+use crate::error::{Error, Result};
 use crate::model::{identity_metric, Model};
+
 use crate::system::MetriplecticSystem;
-
-/// Configuration of [`identify`]. Build with struct-update syntax from
-/// [`Default`]; [`identify`] validates it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct IdentifyConfig {
-    /// `None`: Algorithm 1 on the full data. `Some(q)`: Algorithm 2, a fresh
-    /// minibatch of q distinct samples each iteration. q must be between 1
-    /// and the number of samples (a larger q is an error, not a clamp, so a
-    /// typo does not silently turn Algorithm 2 into Algorithm 1).
-    pub batch_size: Option<usize>,
-    /// Coefficient bound η: |ψₖ| ≤ η and 0 ⪯ K ⪯ ηI. Default 20 (the 2-D
-    /// paper system's largest true entropy coefficient is 16).
-    pub eta: f64,
-    /// Iteration cap (each iteration = one metric and one entropy search).
-    pub max_iterations: usize,
-    /// Stop when the per-component cost on the iteration's batch is ≤ this.
-    pub tolerance: f64,
-    /// Seed of the minibatch generator (ChaCha8): equal seeds give equal runs.
-    pub seed: u64,
-    /// Initial entropy coefficients ψ⁽⁰⁾ (`None`: zeros).
-    pub initial_entropy: Option<Vec<f64>>,
-    /// Initial metric coefficients θ⁽⁰⁾ (`None`: the identity metric).
-    pub initial_metric: Option<Vec<f64>>,
-    /// Solver settings (backend, tolerances) for both subproblems.
-    pub solver: SolverSettings,
-    /// How the L1 objectives are written for Clarabel (Clarabel backend only).
-    pub formulation: L1Formulation,
-    /// SOS tables for the metric search.
-    pub sos: SosBasis,
-    /// Give up after this many consecutive iterations in which both solves failed.
-    pub max_failed_iterations: usize,
-    /// Which steps each iteration takes (default: the paper's alternation).
-    pub scheme: IterationScheme,
-    /// Periodic checkpoints of the run's full state, from which
-    /// [`identify_resume`] continues it (`None`: no checkpoints).
-    pub checkpoint: Option<CheckpointConfig>,
-}
-
-/// The steps of one iteration of [`identify`].
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[non_exhaustive]
-pub enum IterationScheme {
-    /// The paper's Algorithms 1 and 2: metric search, then entropy search.
-    #[default]
-    Alternating,
-    /// Metric search, entropy search, then a joint linearised step in both
-    /// blocks ([`crate::joint_step`]) on the same batch, in a trust region
-    /// that adapts from step to step. Every step is accepted only if the
-    /// batch cost does not increase, so Theorem 1 still holds.
-    AlternatingThenJoint(TrustRegion),
-}
-
-impl Default for IdentifyConfig {
-    fn default() -> Self {
-        Self {
-            batch_size: None,
-            eta: 20.0,
-            max_iterations: 100,
-            tolerance: 1e-9,
-            seed: 0,
-            initial_entropy: None,
-            initial_metric: None,
-            solver: SolverSettings::default(),
-            formulation: L1Formulation::default(),
-            sos: SosBasis::default(),
-            max_failed_iterations: 3,
-            scheme: IterationScheme::Alternating,
-            checkpoint: None,
-        }
-    }
-}
-
-impl IdentifyConfig {
-    /// Checks the configuration against system `S` and a dataset of
-    /// `samples` samples.
-    pub fn validate<S: MetriplecticSystem>(&self, samples: usize) -> Result<()> {
-        let invalid = |what: &str, reason: String| Error::InvalidArgument {
-            what: what.to_owned(),
-            reason,
-        };
-        match self.batch_size {
-            Some(0) => {
-                return Err(invalid(
-                    "batch size",
-                    "must be at least 1 (use None for the full batch)".to_owned(),
-                ))
-            }
-            Some(q) if q > samples => {
-                return Err(invalid(
-                    "batch size",
-                    format!(
-                        "{q} exceeds the {samples} samples of the dataset (use None for the full batch)"
-                    ),
-                ))
-            }
-            _ => {}
-        }
-        check_eta(self.eta)?;
-        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
-            return Err(invalid(
-                "tolerance",
-                format!("{} is not a finite non-negative number", self.tolerance),
-            ));
-        }
-        if self.max_iterations == 0 {
-            return Err(invalid("max_iterations", "must be at least 1".to_owned()));
-        }
-        if self.max_failed_iterations == 0 {
-            return Err(invalid(
-                "max_failed_iterations",
-                "must be at least 1".to_owned(),
-            ));
-        }
-        if let Some(entropy) = &self.initial_entropy {
-            check_len(
-                "initial entropy coefficients",
-                entropy,
-                S::entropy_coefficient_count(),
-            )?;
-            check_finite("initial entropy coefficients", entropy)?;
-        }
-        if let Some(metric) = &self.initial_metric {
-            check_len(
-                "initial metric coefficients",
-                metric,
-                S::metric_coefficient_count(),
-            )?;
-            check_finite("initial metric coefficients", metric)?;
-        }
-        if let IterationScheme::AlternatingThenJoint(trust) = &self.scheme {
-            trust.validate()?;
-        }
-        if let Some(checkpoint) = &self.checkpoint {
-            checkpoint.validate()?;
-        }
-        self.solver.validate()
-    }
-}
-
-/// What became of one subproblem's result.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum StepOutcome {
-    /// The result replaced the current model.
-    Accepted,
-    /// The solve succeeded but its cost on the batch was higher than the
-    /// current model's; the current model was kept.
-    RejectedWorse,
-    /// The solve failed (status not usable, or non-finite coefficients);
-    /// the current model was kept.
-    RejectedFailed,
-}
-
-/// One subproblem of one iteration.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StepRecord {
-    /// Solver status, iterations, timings and the candidate's recomputed cost.
-    pub report: SolveReport,
-    /// Whether the candidate was accepted.
-    pub outcome: StepOutcome,
-    /// Cost of the current model on the batch after this step.
-    pub cost_after: Cost,
-}
-
-/// One iteration of the identifier.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct IterationRecord {
-    /// Iteration number, from 1.
-    pub iteration: usize,
-    /// Samples in this iteration's batch.
-    pub batch_size: usize,
-    /// Cost of the current model on this batch before the iteration.
-    pub cost_before: Cost,
-    /// The metric search (entropy fixed).
-    pub metric: StepRecord,
-    /// The entropy search (metric fixed).
-    pub entropy: StepRecord,
-    /// The joint step, if the scheme takes one.
-    #[serde(default)]
-    pub joint: Option<JointStepRecord>,
-}
-
-impl IterationRecord {
-    /// Cost of the current model on this iteration's batch after the
-    /// iteration's last step.
-    pub fn cost_after(&self) -> Cost {
-        self.joint
-            .as_ref()
-            .map_or(self.entropy.cost_after, |joint| joint.step.cost_after)
-    }
-}
-
-/// The joint step of one iteration ([`IterationScheme::AlternatingThenJoint`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct JointStepRecord {
-    /// Solve report and outcome, as for the other steps.
-    pub step: StepRecord,
-    /// Trust radius Δ the step was taken with.
-    pub radius: f64,
-    /// Batch cost the linearised model predicted for the step (`None` if
-    /// the solver returned non-finite values).
-    pub predicted: Option<Cost>,
-    /// Actual decrease over predicted decrease, if the step was accepted
-    /// and a decrease was predicted.
-    pub ratio: Option<f64>,
-}
-
-/// The per-iteration history of an identification run.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct History {
-    /// One record per iteration, in order.
-    pub iterations: Vec<IterationRecord>,
-}
-
-impl History {
-    /// Writes the history as CSV, one row per iteration, with a header.
-    pub fn write_csv<W: Write>(&self, mut out: W) -> std::io::Result<()> {
-        writeln!(
-            out,
-            "iteration,batch_size,cost_before_sum,cost_before_per_component,\
-             metric_status,metric_outcome,metric_ipm_iterations,metric_assembly_s,metric_solver_s,\
-             metric_candidate_per_component,metric_cost_after_sum,metric_cost_after_per_component,\
-             entropy_status,entropy_outcome,entropy_ipm_iterations,entropy_assembly_s,entropy_solver_s,\
-             entropy_candidate_per_component,entropy_cost_after_sum,entropy_cost_after_per_component,\
-             joint_status,joint_outcome,joint_ipm_iterations,joint_assembly_s,joint_solver_s,\
-             joint_candidate_per_component,joint_cost_after_sum,joint_cost_after_per_component,\
-             joint_radius,joint_predicted_per_component,joint_ratio"
-        )?;
-        for r in &self.iterations {
-            write!(
-                out,
-                "{},{},{},{}",
-                r.iteration, r.batch_size, r.cost_before.sum, r.cost_before.per_component
-            )?;
-            for step in [
-                Some(&r.metric),
-                Some(&r.entropy),
-                r.joint.as_ref().map(|j| &j.step),
-            ] {
-                let Some(step) = step else {
-                    write!(out, ",,,,,,,,")?;
-                    continue;
-                };
-                let candidate = step
-                    .report
-                    .cost
-                    .map(|c| c.per_component.to_string())
-                    .unwrap_or_default();
-                write!(
-                    out,
-                    ",{},{:?},{},{},{},{},{},{}",
-                    step.report.status,
-                    step.outcome,
-                    step.report.iterations,
-                    step.report.assembly_seconds,
-                    step.report.solver_seconds,
-                    candidate,
-                    step.cost_after.sum,
-                    step.cost_after.per_component
-                )?;
-            }
-            match &r.joint {
-                Some(joint) => write!(
-                    out,
-                    ",{},{},{}",
-                    joint.radius,
-                    joint
-                        .predicted
-                        .map(|c| c.per_component.to_string())
-                        .unwrap_or_default(),
-                    joint.ratio.map(|c| c.to_string()).unwrap_or_default()
-                )?,
-                None => write!(out, ",,,")?,
-            }
-            writeln!(out)?;
-        }
-        Ok(())
-    }
-
-    /// Counts of each solver status over both subproblems: (metric, entropy).
-    pub fn status_counts(&self) -> Vec<(SolveStatus, usize, usize)> {
-        let mut counts: Vec<(SolveStatus, usize, usize)> = Vec::new();
-        for r in &self.iterations {
-            for (status, is_metric) in [
-                (r.metric.report.status, true),
-                (r.entropy.report.status, false),
-            ] {
-                let slot = match counts.iter().position(|c| c.0 == status) {
-                    Some(i) => i,
-                    None => {
-                        counts.push((status, 0, 0));
-                        counts.len() - 1
-                    }
-                };
-                if is_metric {
-                    counts[slot].1 += 1;
-                } else {
-                    counts[slot].2 += 1;
-                }
-            }
-        }
-        counts
-    }
-
-    /// Counts of each solver status of the joint steps (empty for the
-    /// alternating scheme).
-    pub fn joint_status_counts(&self) -> Vec<(SolveStatus, usize)> {
-        let mut counts: Vec<(SolveStatus, usize)> = Vec::new();
-        for joint in self.iterations.iter().filter_map(|r| r.joint.as_ref()) {
-            let status = joint.step.report.status;
-            match counts.iter_mut().find(|c| c.0 == status) {
-                Some(slot) => slot.1 += 1,
-                None => counts.push((status, 1)),
-            }
-        }
-        counts
-    }
-}
-
-/// Why [`identify`] stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum StopReason {
-    /// The batch cost per component reached the tolerance.
-    Converged,
-    /// The iteration cap was reached.
-    MaxIterations,
-    /// The observer asked to stop.
-    Interrupted,
-    /// Consecutive iterations in which both solves failed; the best model
-    /// reached before is returned.
-    SolverFailures,
-}
 
 /// Result of [`identify`].
 #[derive(Debug, Clone)]
@@ -479,7 +148,7 @@ where
 {
     check_dataset::<S>(data)?;
     config.validate::<S>(data.len())?;
-    let state = crate::checkpoint::load::<S>(path.as_ref(), data, config)?;
+    let state = checkpoint::load::<S>(path.as_ref(), data, config)?;
     match state.stopped {
         Some(reason @ (StopReason::Converged | StopReason::SolverFailures)) => Ok(Identification {
             model: state.model,
@@ -488,25 +157,6 @@ where
         }),
         _ => run(data, config, state, observer),
     }
-}
-
-/// Everything a run carries from one iteration to the next: what a
-/// checkpoint saves.
-pub(crate) struct RunState<S: MetriplecticSystem> {
-    /// The current (last accepted) model.
-    pub(crate) model: Model<S>,
-    /// The iterations so far.
-    pub(crate) history: History,
-    /// The minibatch generator, positioned after the last batch drawn.
-    pub(crate) rng: ChaCha8Rng,
-    /// Consecutive iterations in which both solves failed.
-    pub(crate) failed_in_a_row: usize,
-    /// Whether any step was ever accepted.
-    pub(crate) ever_accepted: bool,
-    /// Trust radius of the next joint step (0 for the alternating scheme).
-    pub(crate) radius: f64,
-    /// Why the run stopped, if it did.
-    pub(crate) stopped: Option<StopReason>,
 }
 
 /// The iterations of [`identify_with_observer`] from `state` on.
@@ -520,17 +170,7 @@ where
     S: MetriplecticSystem,
     F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
 {
-    let metric_options = MetricSearchOptions {
-        eta: config.eta,
-        formulation: config.formulation,
-        sos: config.sos,
-        solver: config.solver.clone(),
-    };
-    let entropy_options = EntropySearchOptions {
-        eta: config.eta,
-        formulation: config.formulation,
-        solver: config.solver.clone(),
-    };
+    let options = &config.search;
     let first = state.history.iterations.len() + 1;
     state.stopped = None;
 
@@ -546,11 +186,11 @@ where
         let model = &mut state.model;
         let cost_before = model_cost(model, batch)?;
 
-        let search = metric_search::<S>(batch, model.entropy_coefficients(), &metric_options)?;
+        let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
         let metric = decide(model, cost_before, search.report, |m| {
             m.set_metric_coefficients(search.coefficients)
         });
-        let search = entropy_search::<S>(batch, model.metric_coefficients(), &entropy_options)?;
+        let search = entropy_search::<S>(batch, model.metric_coefficients(), options)?;
         let entropy = decide(model, metric.cost_after, search.report, |m| {
             m.set_entropy_coefficients(search.coefficients)
         });
@@ -560,7 +200,7 @@ where
             IterationScheme::AlternatingThenJoint(trust) => {
                 let current = entropy.cost_after;
                 let radius = state.radius;
-                let step = joint_step::<S>(batch, model, radius, &metric_options)?;
+                let step = joint_step::<S>(batch, model, radius, options)?;
                 let record = decide(model, current, step.report, |m| {
                     *m = Model::new(step.entropy, step.metric)?;
                     Ok(())
@@ -633,7 +273,7 @@ where
         }
         if let Some(checkpoint) = &config.checkpoint {
             if state.stopped.is_some() || iteration % checkpoint.every == 0 {
-                crate::checkpoint::save(&checkpoint.path, data, config, &state)?;
+                checkpoint::save(&checkpoint.path, data, config, &state)?;
             }
         }
         if state.stopped.is_some() {
@@ -653,7 +293,7 @@ where
 fn decide<S: MetriplecticSystem>(
     model: &mut Model<S>,
     current: Cost,
-    report: SolveReport,
+    report: SearchReport,
     apply: impl FnOnce(&mut Model<S>) -> Result<()>,
 ) -> StepRecord {
     let outcome = match report.cost {
@@ -682,6 +322,7 @@ fn decide<S: MetriplecticSystem>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{SearchOptions, SolveStatus, SolverSettings};
     use crate::test_system::{reference_data, Quadratic2d};
 
     fn assert_non_increasing(history: &History) {
@@ -829,11 +470,17 @@ mod tests {
                 ..IdentifyConfig::default()
             },
             IdentifyConfig {
-                eta: 0.0,
+                search: SearchOptions {
+                    eta: 0.0,
+                    ..SearchOptions::default()
+                },
                 ..IdentifyConfig::default()
             },
             IdentifyConfig {
-                eta: f64::NAN,
+                search: SearchOptions {
+                    eta: f64::NAN,
+                    ..SearchOptions::default()
+                },
                 ..IdentifyConfig::default()
             },
             IdentifyConfig {
@@ -849,9 +496,12 @@ mod tests {
                 ..IdentifyConfig::default()
             },
             IdentifyConfig {
-                solver: SolverSettings {
+                search: SearchOptions {
+                    solver: SolverSettings {
                     max_iter: 0,
                     ..SolverSettings::default()
+                },
+                    ..SearchOptions::default()
                 },
                 ..IdentifyConfig::default()
             },
@@ -882,9 +532,12 @@ mod tests {
         // returns the model it had, not an error.
         let data = reference_data(20, 17);
         let config = IdentifyConfig {
-            solver: SolverSettings {
+            search: SearchOptions {
+                solver: SolverSettings {
                 max_iter: 1,
                 ..SolverSettings::default()
+            },
+                ..SearchOptions::default()
             },
             max_failed_iterations: 2,
             ..IdentifyConfig::default()
@@ -921,9 +574,12 @@ mod tests {
         // accepted the run ends in a typed error.
         let data = reference_data(20, 16);
         let config = IdentifyConfig {
-            solver: SolverSettings {
+            search: SearchOptions {
+                solver: SolverSettings {
                 max_iter: 1,
                 ..SolverSettings::default()
+            },
+                ..SearchOptions::default()
             },
             max_failed_iterations: 2,
             ..IdentifyConfig::default()
@@ -942,7 +598,7 @@ mod tests {
             "{err}"
         );
         let start =
-            Model::<Quadratic2d>::new(vec![0.0; 5], identity_metric::<Quadratic2d>(1.0)).unwrap();
+            Model::<Quadratic2d>::new(vec![0.0; 5], crate::model::identity_metric::<Quadratic2d>(1.0)).unwrap();
         assert!(models.iter().all(|m| *m == start));
     }
 }

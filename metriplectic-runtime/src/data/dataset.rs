@@ -1,7 +1,7 @@
 //! Identification data: samples (xᵢ, ẋᵢ) of a system's state and its time
 //! derivative.
 
-use crate::error::{Error, Result};
+use crate::error::{DatasetError, Error, Result};
 
 /// Validated samples (xᵢ, ẋᵢ), i = 0..m, of an n-dimensional state.
 ///
@@ -13,61 +13,6 @@ pub struct Dataset {
     dim: usize,
     states: Vec<f64>,
     derivatives: Vec<f64>,
-}
-
-/// Errors specific to dataset construction, reported with the sample index and
-/// state column of the first offending value.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum DatasetError {
-    /// No samples were given.
-    #[error("dataset is empty: at least one sample (x, ẋ) is required")]
-    Empty,
-    /// The state dimension is zero.
-    #[error("state dimension must be at least 1")]
-    ZeroDimension,
-    /// A flat buffer's length is not a multiple of the dimension.
-    #[error("{what} buffer has {len} values, not a multiple of the state dimension {dim}")]
-    RaggedBuffer {
-        /// "states" or "derivatives".
-        what: &'static str,
-        /// Length of the buffer.
-        len: usize,
-        /// State dimension.
-        dim: usize,
-    },
-    /// States and derivatives disagree in sample count.
-    #[error("{states} states but {derivatives} derivatives: every state needs its derivative")]
-    CountMismatch {
-        /// Number of states.
-        states: usize,
-        /// Number of derivatives.
-        derivatives: usize,
-    },
-    /// One sample has the wrong number of columns.
-    #[error("sample {sample}: {what} has {found} columns, the system has {expected}")]
-    WrongWidth {
-        /// Sample index (0-based).
-        sample: usize,
-        /// "state" or "derivative".
-        what: &'static str,
-        /// Columns expected.
-        expected: usize,
-        /// Columns found.
-        found: usize,
-    },
-    /// A NaN or infinite value.
-    #[error("sample {sample}, {what} column {column}: non-finite value {value}")]
-    NonFinite {
-        /// Sample index (0-based).
-        sample: usize,
-        /// "state" or "derivative".
-        what: &'static str,
-        /// State column (0-based).
-        column: usize,
-        /// The offending value.
-        value: f64,
-    },
 }
 
 impl Dataset {

@@ -1,4 +1,5 @@
-//! Free-energy diagnostics of a model along trajectories.
+//! Free-energy checks: along a simulated trajectory (against the
+//! integrator's tolerance) and along measured trajectories.
 //!
 //! For any model with K ⪰ 0 the free energy E = H + S is non-decreasing along
 //! its own flow (dE/dt = ∇Eᵀ K ∇E ≥ 0). Evaluated along *measured*
@@ -9,13 +10,14 @@
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
-use crate::trajectory::Trajectory;
+use crate::data::Trajectory;
+use super::dopri::IntegratorOptions;
 
 /// How often E decreased along a set of trajectories.
 ///
 /// ```
 /// # use metriplectic_runtime::prelude::*;
-/// # use metriplectic_runtime::{diagnostics::free_energy_diagnostics, Trajectory};
+/// # use metriplectic_runtime::{free_energy_diagnostics, Trajectory};
 /// # metriplectic! {
 /// #     pub struct Decay;
 /// #     state (x, y);
@@ -98,3 +100,86 @@ pub fn free_energy_diagnostics<S: MetriplecticSystem>(
     }
     Ok(report)
 }
+
+/// Result of the free-energy monotonicity check of one simulated trajectory
+/// (see the [`simulate`](crate::simulate) documentation for the tolerance).
+///
+/// ```
+/// use metriplectic_runtime::EnergyCheck;
+///
+/// let check = EnergyCheck { steps: 10, violations: 0, largest_decrease: 0.0,
+///                           largest_decrease_ratio: 0.0, worst_step: None };
+/// assert!(check.is_non_decreasing());
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnergyCheck {
+    /// Number of consecutive output pairs checked.
+    pub steps: usize,
+    /// Pairs where E decreased by more than the tolerance τₖ.
+    pub violations: usize,
+    /// Largest decrease E(xₖ) − E(xₖ₊₁) seen (0 if E never decreased).
+    pub largest_decrease: f64,
+    /// Largest ratio of a decrease to its tolerance τₖ (0 if E never decreased).
+    pub largest_decrease_ratio: f64,
+    /// Output index k of the worst pair, if E ever decreased.
+    pub worst_step: Option<usize>,
+}
+
+impl EnergyCheck {
+    /// `true` if E was non-decreasing within the tolerance everywhere.
+    pub fn is_non_decreasing(&self) -> bool {
+        self.violations == 0
+    }
+}
+
+/// Counts decreases of E beyond the integrator-tied tolerance τₖ.
+pub(super) fn check_energy(
+    energy: &[f64],
+    gradient_norms: &[f64],
+    rounding: &[f64],
+    states: &[f64],
+    n: usize,
+    options: &IntegratorOptions,
+    factor: f64,
+) -> EnergyCheck {
+    let state_norms: Vec<f64> = states.chunks_exact(n).map(norm).collect();
+    let mut check = EnergyCheck {
+        steps: energy.len().saturating_sub(1),
+        violations: 0,
+        largest_decrease: 0.0,
+        largest_decrease_ratio: 0.0,
+        worst_step: None,
+    };
+    for k in 0..check.steps {
+        let decrease = energy[k] - energy[k + 1];
+        if decrease <= 0.0 {
+            continue;
+        }
+        let error_scale = options.atol * (n as f64).sqrt()
+            + options.rtol * state_norms[k].max(state_norms[k + 1]);
+        let tolerance = factor * error_scale * gradient_norms[k].max(gradient_norms[k + 1])
+            + rounding[k]
+            + rounding[k + 1];
+        let ratio = if tolerance > 0.0 {
+            decrease / tolerance
+        } else {
+            f64::INFINITY
+        };
+        if decrease > tolerance {
+            check.violations += 1;
+        }
+        if decrease > check.largest_decrease {
+            check.largest_decrease = decrease;
+        }
+        if ratio > check.largest_decrease_ratio {
+            check.largest_decrease_ratio = ratio;
+            check.worst_step = Some(k);
+        }
+    }
+    check
+}
+
+pub(super) fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+

@@ -16,8 +16,8 @@
 //! linear in (θ′, d) but for the last, bilinear, term. Dropping it leaves
 //! one convex program, solved exactly like the metric search (same L1
 //! objective, same SOS cones on θ′) with the entropy columns
-//! [`entropy_block`](crate::system::MetriplecticSystem::entropy_block) added
-//! beside the [`metric_block`](crate::system::MetriplecticSystem::metric_block)
+//! [`entropy_block`](crate::MetriplecticSystem::entropy_block) added
+//! beside the [`metric_block`](crate::MetriplecticSystem::metric_block)
 //! columns, plus the trust region |d|∞ ≤ Δ, |θ′ − θ|∞ ≤ Δ and the box
 //! |ψ + d| ≤ η. The current point is feasible, so the linearised cost never
 //! exceeds the current cost; the true cost of the candidate is recomputed
@@ -39,133 +39,26 @@
 //! the dropped bilinear term makes the true cost worse than predicted.
 //! Every joint step therefore adds a small L1 proximal term
 //! Σₖ λₖ |Δₖ| on the coefficient changes (extra regression rows with zero
-//! target), with λₖ = [`STEP_PENALTY`] · Σᵢ |Aᵢₖ| relative to the rate at
+//! target), with λₖ = `STEP_PENALTY` · Σᵢ |Aᵢₖ| relative to the rate at
 //! which the data term can change along coefficient k. Polyhedral penalties
 //! are exact: directions along which the data term rises faster than the
 //! penalty keep their unpenalised optimum, while (nearly) flat directions
 //! get the shortest step. The predicted cost excludes the penalty.
 
-use clarabel::solver::SupportedConeT;
-use serde::{Deserialize, Serialize};
-
-use crate::conic::{solve_l1, svec_len, ConstraintGroup, Regression, SolveReport};
-use crate::cost::{check_dataset, model_cost, Cost};
-use crate::dataset::Dataset;
-use crate::entropy_search::{check_eta, entropy_regression};
-use crate::error::{Error, Result};
-use crate::metric_search::{
-    check_tables, metric_regression, sos_groups, theta_from_gram, MetricSearchOptions,
-};
+use super::sos::{add_sos_constraints, check_tables, SosConstraints, theta_from_gram};
+use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
+use crate::data::Dataset;
+use crate::error::{invalid, Result};
+use crate::identify::cost::{check_dataset, model_cost, Cost};
 use crate::model::Model;
+use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
 
 /// Weight of the joint step's L1 proximal term relative to each
 /// coefficient column's L1 norm (see the module docs): directions along
 /// which the linearised data cost changes more slowly than this fraction of
 /// its largest possible rate count as flat and are not moved along.
-pub const STEP_PENALTY: f64 = 1e-6;
-
-/// The trust region of the joint step and how it adapts.
-///
-/// The radius Δ bounds every coefficient change of a joint step
-/// (|Δψₖ| ≤ Δ and |Δθₜ| ≤ Δ). After each step the ratio
-/// ρ = (actual decrease) / (decrease predicted by the linearised cost)
-/// adapts it: ρ ≥ `good_ratio` multiplies Δ by `grow` (up to `max_radius`),
-/// ρ < `poor_ratio` (including a rejected or failed step) multiplies it by
-/// `shrink` (down to `min_radius`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct TrustRegion {
-    /// Δ of the first joint step.
-    pub initial_radius: f64,
-    /// Upper limit of Δ.
-    pub max_radius: f64,
-    /// Lower limit of Δ (a minibatch may reject a step that another accepts,
-    /// so Δ is not allowed to collapse to zero).
-    pub min_radius: f64,
-    /// Factor applied to Δ after a good step (> 1).
-    pub grow: f64,
-    /// Factor applied to Δ after a poor, rejected or failed step (in (0, 1)).
-    pub shrink: f64,
-    /// ρ at or above which a step counts as good.
-    pub good_ratio: f64,
-    /// ρ below which a step counts as poor.
-    pub poor_ratio: f64,
-}
-
-impl Default for TrustRegion {
-    fn default() -> Self {
-        Self {
-            initial_radius: 0.1,
-            max_radius: 10.0,
-            min_radius: 1e-10,
-            grow: 2.0,
-            shrink: 0.25,
-            good_ratio: 0.75,
-            poor_ratio: 0.25,
-        }
-    }
-}
-
-impl TrustRegion {
-    /// Checks that the radii are ordered and positive and the factors and
-    /// ratios are in range.
-    pub fn validate(&self) -> Result<()> {
-        let invalid = |what: &str, reason: String| Error::InvalidArgument {
-            what: format!("trust region {what}"),
-            reason,
-        };
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !(positive(self.min_radius)
-            && positive(self.max_radius)
-            && positive(self.initial_radius)
-            && self.min_radius <= self.initial_radius
-            && self.initial_radius <= self.max_radius)
-        {
-            return Err(invalid(
-                "radii",
-                format!(
-                    "need 0 < min_radius ≤ initial_radius ≤ max_radius < ∞, got {} ≤ {} ≤ {}",
-                    self.min_radius, self.initial_radius, self.max_radius
-                ),
-            ));
-        }
-        if !(self.grow.is_finite() && self.grow > 1.0) {
-            return Err(invalid(
-                "grow",
-                format!("{} is not a finite factor > 1", self.grow),
-            ));
-        }
-        if !(self.shrink > 0.0 && self.shrink < 1.0) {
-            return Err(invalid(
-                "shrink",
-                format!("{} is not in (0, 1)", self.shrink),
-            ));
-        }
-        if !(self.poor_ratio >= 0.0 && self.poor_ratio <= self.good_ratio && self.good_ratio <= 1.0)
-        {
-            return Err(invalid(
-                "ratios",
-                format!(
-                    "need 0 ≤ poor_ratio ≤ good_ratio ≤ 1, got {} and {}",
-                    self.poor_ratio, self.good_ratio
-                ),
-            ));
-        }
-        Ok(())
-    }
-
-    /// The radius after a step with decrease ratio `ratio` (`None`: the
-    /// step was rejected or failed).
-    pub fn update(&self, radius: f64, ratio: Option<f64>) -> f64 {
-        let next = match ratio {
-            Some(rho) if rho >= self.good_ratio => radius * self.grow,
-            Some(rho) if rho >= self.poor_ratio => radius,
-            _ => radius * self.shrink,
-        };
-        next.clamp(self.min_radius, self.max_radius)
-    }
-}
+const STEP_PENALTY: f64 = 1e-6;
 
 /// The result of one joint step.
 #[derive(Debug, Clone, PartialEq)]
@@ -179,28 +72,26 @@ pub struct JointStep {
     /// `None` if the solver returned non-finite values.
     pub predicted: Option<Cost>,
     /// Status, timings and the candidate's true (recomputed) cost.
-    pub report: SolveReport,
+    pub report: SearchReport,
 }
 
 /// One joint linearised step from `model` on `data` with trust radius
-/// `radius`, using the metric search's η, SOS tables, formulation and solver
-/// settings.
+/// `radius` (every coefficient moves by at most `radius`).
 ///
 /// Errors on invalid input; solver trouble is reported in the status.
 pub fn joint_step<S: MetriplecticSystem>(
     data: &Dataset,
     model: &Model<S>,
     radius: f64,
-    options: &MetricSearchOptions,
+    options: &SearchOptions,
 ) -> Result<JointStep> {
     check_dataset::<S>(data)?;
-    check_eta(options.eta)?;
-    options.solver.validate()?;
+    options.validate()?;
     if !(radius.is_finite() && radius > 0.0) {
-        return Err(Error::InvalidArgument {
-            what: "trust radius".to_owned(),
-            reason: format!("{radius} is not a finite positive number"),
-        });
+        return Err(invalid(
+            "trust radius",
+            format!("{radius} is not a finite positive number"),
+        ));
     }
     let tables = options.sos.tables::<S>();
     check_tables::<S>(&tables)?;
@@ -213,7 +104,10 @@ pub fn joint_step<S: MetriplecticSystem>(
     // residual's constant part.
     let regression =
         metric_regression::<S>(data, psi).with_columns_of(&entropy_regression::<S>(data, theta));
-    let (mut groups, gram_size) = sos_groups::<S>(&tables, options.eta, 0, t_len + p);
+    let penalised = regression.stacked(&step_penalty(&regression, theta));
+    let gram_size = S::DIM * tables.exponents.len();
+    let mut problem = L1Problem::new(penalised, SosConstraints::variables(gram_size));
+    let sos = add_sos_constraints::<S>(&mut problem, &tables, options.eta, 0, t_len + p)?;
     let mut entries = Vec::with_capacity(2 * (t_len + p));
     let mut rhs = Vec::with_capacity(2 * (t_len + p));
     for (t, &value) in theta.iter().enumerate() {
@@ -230,34 +124,20 @@ pub fn joint_step<S: MetriplecticSystem>(
             radius.min(options.eta + value),
         ]);
     }
-    groups.push(ConstraintGroup {
-        cone: SupportedConeT::NonnegativeConeT(rhs.len()),
-        entries,
-        rhs,
-    });
+    problem.constrain(Cone::Nonnegative(rhs.len()), entries, rhs)?;
     let build_seconds = start.elapsed().as_secs_f64();
+    let solution = solve_l1(&problem, &options.solver)?;
 
-    let penalised = regression.stacked(&step_penalty(&regression, theta));
-    let outcome = solve_l1(
-        &penalised,
-        2 * svec_len(gram_size),
-        &groups,
-        options.formulation,
-        &options.solver,
-    )?;
-    let solution = &outcome.x[..t_len + p];
+    let step = &solution.coefficients()[..t_len + p];
     // The prediction is the linearised data cost, without the penalty.
-    let predicted = solution
+    let predicted = step
         .iter()
         .all(|v| v.is_finite())
-        .then(|| Cost::from_sum(regression.l1_residual(solution), regression.len()));
-    let metric = theta_from_gram::<S>(
-        &tables,
-        &crate::conic::unsvec(gram_size, &outcome.group_slacks[1]),
-    );
+        .then(|| Cost::from_sum(regression.l1_residual(step), regression.len()));
+    let metric = theta_from_gram::<S>(&tables, &sos.gram(&solution));
     let entropy: Vec<f64> = psi
         .iter()
-        .zip(&solution[t_len..])
+        .zip(&step[t_len..])
         .map(|(v, d)| (v + d).clamp(-options.eta, options.eta))
         .collect();
     let cost = Model::<S>::new(entropy.clone(), metric.clone())
@@ -267,18 +147,12 @@ pub fn joint_step<S: MetriplecticSystem>(
         entropy,
         metric,
         predicted,
-        report: SolveReport {
-            status: outcome.status,
-            iterations: outcome.iterations,
-            assembly_seconds: build_seconds + outcome.assembly_seconds,
-            solver_seconds: outcome.solver_seconds,
-            cost,
-        },
+        report: SearchReport::new(&solution, build_seconds, cost),
     })
 }
 
 /// The proximal rows λₖ (cₖ − cₖ⁽⁰⁾) of the joint step, for columns
-/// [θ′ | d] whose current values are [θ | 0]; λₖ = [`STEP_PENALTY`] times
+/// [θ′ | d] whose current values are [θ | 0]; λₖ = `STEP_PENALTY` times
 /// column k's L1 norm, and columns without data get no row.
 fn step_penalty(regression: &Regression, theta: &[f64]) -> Regression {
     let width = regression.width;

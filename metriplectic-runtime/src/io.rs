@@ -1,10 +1,28 @@
-//! Bounded reads and atomic writes of whole files (model files, checkpoints).
+//! Whole files: bounded reads, atomic writes (model files, checkpoints),
+//! and whether a write may replace an existing file.
 
 use std::fs::File;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+
+/// Whether a writer may replace an existing file (model files, trajectory
+/// CSV). Default [`CreateNew`](Self::CreateNew): nothing the user has is
+/// replaced without asking.
+///
+/// ```
+/// use metriplectic_runtime::WriteMode;
+/// assert_eq!(WriteMode::default(), WriteMode::CreateNew);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WriteMode {
+    /// Fail with [`Error::FileExists`] if the file exists.
+    #[default]
+    CreateNew,
+    /// Replace an existing file.
+    Overwrite,
+}
 
 /// Reads `path` as UTF-8 text, refusing files larger than `limit` bytes.
 ///

@@ -17,7 +17,7 @@
 //!   [`STATE_NAMES`](crate::MetriplecticSystem::STATE_NAMES) (required).
 //! * `d<name>` for each state variable — its time derivative (optional: all
 //!   of them or none). Without them, estimate derivatives with
-//!   [`crate::derivative`].
+//!   [`estimate_derivatives`](crate::estimate_derivatives).
 //! * `trajectory` — an identifier (any non-empty text) when the file holds
 //!   several trajectories (optional; without it the file is one trajectory).
 //!   The rows of one trajectory must be contiguous.
@@ -36,200 +36,17 @@ use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use super::Trajectory;
+use crate::error::{quoted, CsvError, Error, Result};
+use crate::io::WriteMode;
 use crate::system::MetriplecticSystem;
-use crate::trajectory::Trajectory;
 
 /// Name of the time column.
-pub const TIME_COLUMN: &str = "t";
+pub(crate) const TIME_COLUMN: &str = "t";
 /// Name of the optional trajectory-identifier column.
-pub const TRAJECTORY_COLUMN: &str = "trajectory";
+pub(crate) const TRAJECTORY_COLUMN: &str = "trajectory";
 /// Prefix of derivative columns: the derivative of `q` is `dq`.
-pub const DERIVATIVE_PREFIX: &str = "d";
-
-/// Malformed trajectory CSV. Lines are 1-based with the header on line 1;
-/// columns are 1-based.
-///
-/// ```
-/// use metriplectic_runtime::csv_io::{read_trajectories_from, CsvError};
-/// use metriplectic_runtime::Error;
-///
-/// let err = read_trajectories_from("t,x\n0,1\n0.1,oops\n".as_bytes(), &["x"]).unwrap_err();
-/// assert!(matches!(err, Error::Csv(CsvError::NotANumber { line: 3, column: 2, .. })));
-/// assert_eq!(err.to_string(), "line 3, column 2 (`x`): `oops` is not a number");
-/// ```
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum CsvError {
-    /// The input has no header line.
-    #[error("empty input: expected a header line with the columns {expected}")]
-    NoHeader {
-        /// The columns the system expects.
-        expected: String,
-    },
-    /// The header has no data rows after it.
-    #[error("no data rows after the header (line 1)")]
-    NoRows,
-    /// Required columns are absent.
-    #[error(
-        "line 1: missing column(s) {}; expected columns: {expected}",
-        quoted(missing)
-    )]
-    MissingColumns {
-        /// The missing names.
-        missing: Vec<String>,
-        /// The columns the system expects.
-        expected: String,
-    },
-    /// Columns the system does not know.
-    #[error(
-        "line 1: unknown column(s) {}; expected columns: {expected}",
-        quoted(unknown)
-    )]
-    UnknownColumns {
-        /// The unknown names.
-        unknown: Vec<String>,
-        /// The columns the system expects.
-        expected: String,
-    },
-    /// A column name appears twice.
-    #[error("line 1: column `{name}` appears twice (columns {first} and {second})")]
-    DuplicateColumn {
-        /// The repeated name.
-        name: String,
-        /// First position (1-based).
-        first: usize,
-        /// Second position (1-based).
-        second: usize,
-    },
-    /// Some but not all derivative columns are present.
-    #[error(
-        "line 1: derivative columns must be all present or all absent; found {}, missing {}",
-        quoted(present),
-        quoted(missing)
-    )]
-    PartialDerivatives {
-        /// Derivative columns found.
-        present: Vec<String>,
-        /// Derivative columns missing.
-        missing: Vec<String>,
-    },
-    /// A state name collides with a reserved or derived column name.
-    #[error("state variable `{name}` clashes with the column name `{name}` this format reserves for {reserved_for}; rename the variable")]
-    ReservedName {
-        /// The state name.
-        name: String,
-        /// What the column name is used for.
-        reserved_for: String,
-    },
-    /// A row has the wrong number of cells.
-    #[error("line {line}: {found} cell(s), but the header has {expected} columns")]
-    FieldCount {
-        /// Line number.
-        line: u64,
-        /// Columns in the header.
-        expected: usize,
-        /// Cells found.
-        found: usize,
-    },
-    /// A cell is not a number.
-    #[error("line {line}, column {column} (`{name}`): `{text}` is not a number")]
-    NotANumber {
-        /// Line number.
-        line: u64,
-        /// Column number (1-based).
-        column: usize,
-        /// Column name.
-        name: String,
-        /// The cell's text.
-        text: String,
-    },
-    /// A cell is NaN or infinite.
-    #[error("line {line}, column {column} (`{name}`): non-finite value `{text}` (NaN and infinities are not allowed)")]
-    NonFinite {
-        /// Line number.
-        line: u64,
-        /// Column number (1-based).
-        column: usize,
-        /// Column name.
-        name: String,
-        /// The cell's text.
-        text: String,
-    },
-    /// A trajectory identifier cell is empty.
-    #[error("line {line}, column {column} (`trajectory`): empty trajectory identifier")]
-    EmptyTrajectoryId {
-        /// Line number.
-        line: u64,
-        /// Column number (1-based).
-        column: usize,
-    },
-    /// Time did not strictly increase within a trajectory.
-    #[error("line {line}, column {column} (`t`): time {time} does not come after {previous} on line {previous_line}{}: times must strictly increase within a trajectory", trajectory.as_ref().map(|t| format!(" in trajectory `{t}`")).unwrap_or_default())]
-    NonIncreasingTime {
-        /// Line number.
-        line: u64,
-        /// Column number of `t` (1-based).
-        column: usize,
-        /// The trajectory, when the file has a `trajectory` column.
-        trajectory: Option<String>,
-        /// The earlier time.
-        previous: f64,
-        /// Its line.
-        previous_line: u64,
-        /// The offending time.
-        time: f64,
-    },
-    /// A trajectory's rows are split by rows of another trajectory.
-    #[error("line {line}: trajectory `{id}` resumes after other trajectories (its rows began on line {first_line}); the rows of a trajectory must be contiguous")]
-    SplitTrajectory {
-        /// Line number.
-        line: u64,
-        /// The trajectory.
-        id: String,
-        /// Where its rows began.
-        first_line: u64,
-    },
-    /// The CSV syntax itself is broken (e.g. invalid UTF-8, unclosed quote).
-    #[error("line {line}: malformed CSV: {message}")]
-    Malformed {
-        /// Line number.
-        line: u64,
-        /// The parser's message.
-        message: String,
-    },
-    /// Trajectories handed to the writer do not share a column layout.
-    #[error("cannot write trajectory {index}: {reason}")]
-    Inconsistent {
-        /// Index of the offending trajectory.
-        index: usize,
-        /// What differs.
-        reason: String,
-    },
-}
-
-fn quoted(names: &[String]) -> String {
-    names
-        .iter()
-        .map(|n| format!("`{n}`"))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// Whether [`write_trajectories`] may replace an existing file.
-///
-/// ```
-/// use metriplectic_runtime::csv_io::WriteMode;
-/// assert_ne!(WriteMode::CreateNew, WriteMode::Overwrite);
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum WriteMode {
-    /// Fail with [`Error::FileExists`] if the file exists.
-    #[default]
-    CreateNew,
-    /// Replace an existing file.
-    Overwrite,
-}
+pub(crate) const DERIVATIVE_PREFIX: &str = "d";
 
 /// Reads the trajectories of system `S` from a CSV file (format in the
 /// [module documentation](self)).
@@ -246,7 +63,7 @@ pub fn read_trajectories<S: MetriplecticSystem>(path: impl AsRef<Path>) -> Resul
 /// text.
 ///
 /// ```
-/// use metriplectic_runtime::csv_io::read_trajectories_from;
+/// use metriplectic_runtime::read_trajectories_from;
 ///
 /// let text = "p,t,q\n0.5,0,1\n0.25,0.1,0.9\n";
 /// let trajs = read_trajectories_from(text.as_bytes(), &["q", "p"]).unwrap();

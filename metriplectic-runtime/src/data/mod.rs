@@ -1,0 +1,15 @@
+//! The data layer: identification samples ([`Dataset`]), sampled
+//! trajectories ([`Trajectory`]), the trajectory CSV format, and derivative
+//! estimation for trajectories measured without ẋ.
+
+mod csv;
+mod dataset;
+mod derivative;
+mod trajectory;
+
+pub use csv::{
+    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
+};
+pub use dataset::Dataset;
+pub use derivative::{differentiate, estimate_all, estimate_derivatives, DerivativeMethod};
+pub use trajectory::{dataset_from_trajectories, Trajectory};

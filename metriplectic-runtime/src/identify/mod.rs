@@ -1,0 +1,26 @@
+//! The identification layer: the driver (the paper's Algorithms 1 and 2,
+//! plus the joint step), its configuration, history, checkpoints and cost,
+//! and the three convex searches in [`search`].
+
+mod checkpoint;
+mod config;
+mod cost;
+mod driver;
+mod history;
+pub(crate) mod search;
+mod state;
+
+pub use checkpoint::CheckpointConfig;
+pub use config::{IdentifyConfig, IterationScheme, TrustRegion};
+pub use cost::{model_cost, Cost};
+pub use driver::{
+    identify, identify_resume, identify_resume_with_observer, identify_with_observer,
+    Identification,
+};
+pub use history::{History, IterationRecord, JointStepRecord, StepOutcome, StepRecord, StopReason};
+pub use search::{
+    entropy_search, joint_step, metric_search, EntropySearch, JointStep, MetricSearch,
+    SearchOptions, SearchReport, SosBasis,
+};
+
+

@@ -1,0 +1,331 @@
+//! The side cones of the dense method (nonnegative orthants and PSD cones in
+//! svec layout): Nesterov–Todd scaling, the Jordan product and division,
+//! step limits and the shift into the interior.
+
+use nalgebra::{Cholesky, DMatrix, DVector};
+
+use crate::solve::svec::{smat, svec_diagonal, svec_into};
+
+/// One segment of the side-cone vector (the non-equality blocks, in order).
+#[derive(Debug, Clone)]
+pub(super) struct Segment {
+    /// Index of the constraint block this segment holds.
+    pub block: usize,
+    /// Offset in the side-cone vector.
+    pub offset: usize,
+    /// `None` for a nonnegative orthant, `Some(n)` for an n×n PSD cone.
+    pub psd: Option<usize>,
+    /// Length in the side-cone vector.
+    pub len: usize,
+}
+
+impl Segment {
+    pub fn range(&self) -> std::ops::Range<usize> {
+        self.offset..self.offset + self.len
+    }
+}
+
+/// Nesterov–Todd scaling of one PSD segment: W(Z) = Rᵀ Z R, W⁻ᵀ(S) = R⁻¹ S R⁻ᵀ,
+/// both equal to diag(λ) at the current point.
+pub(super) struct PsdScaling {
+    r: DMatrix<f64>,
+    r_inv_t: DMatrix<f64>,
+    lambda: Vec<f64>,
+}
+
+impl PsdScaling {
+    fn identity(n: usize) -> Self {
+        Self {
+            r: DMatrix::identity(n, n),
+            r_inv_t: DMatrix::identity(n, n),
+            lambda: vec![1.0; n],
+        }
+    }
+}
+
+/// Scaling of the whole side-cone vector.
+pub(super) struct SideScaling {
+    /// Per component: √(s/z) on nonnegative segments (unused on PSD ones).
+    w: Vec<f64>,
+    /// λ in the scaled space: √(s z) on nonnegative segments, the diagonal on
+    /// PSD segments (svec, so off-diagonal entries are 0).
+    pub lambda: Vec<f64>,
+    psd: Vec<Option<PsdScaling>>,
+}
+
+impl SideScaling {
+    /// W = I, the scaling `coneqp`'s starting point uses.
+    pub fn identity(segments: &[Segment], m: usize) -> Self {
+        Self {
+            w: vec![1.0; m],
+            lambda: vec![1.0; m],
+            psd: segments
+                .iter()
+                .map(|segment| segment.psd.map(PsdScaling::identity))
+                .collect(),
+        }
+    }
+
+    /// NT scaling of the side cones at (s, z); `None` if a PSD block is not
+    /// positive definite (numerical breakdown).
+    pub fn new(segments: &[Segment], s: &DVector<f64>, z: &DVector<f64>) -> Option<Self> {
+        let m = s.len();
+        let mut w = vec![0.0; m];
+        let mut lambda = vec![0.0; m];
+        let mut psd = Vec::with_capacity(segments.len());
+        for segment in segments {
+            let range = segment.range();
+            match segment.psd {
+                None => {
+                    for i in range {
+                        w[i] = (s[i] / z[i]).sqrt();
+                        lambda[i] = (s[i] * z[i]).sqrt();
+                    }
+                    psd.push(None);
+                }
+                Some(n) => {
+                    let scaling = psd_scaling(
+                        n,
+                        &s.as_slice()[range.clone()],
+                        &z.as_slice()[range.clone()],
+                    )?;
+                    let mut k = 0;
+                    for j in 0..n {
+                        for i in 0..=j {
+                            lambda[segment.offset + k] =
+                                if i == j { scaling.lambda[j] } else { 0.0 };
+                            k += 1;
+                        }
+                    }
+                    psd.push(Some(scaling));
+                }
+            }
+        }
+        Some(Self { w, lambda, psd })
+    }
+
+    /// v ↦ W v on the side cones (a dual-space vector to the scaled space).
+    pub fn apply_w(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
+        self.apply(
+            segments,
+            v,
+            |i, x| x * self.w[i],
+            |sc, m| sc.r.transpose() * m * &sc.r,
+        )
+    }
+
+    /// v ↦ Wᵀ v (the scaled space back to the primal space).
+    pub fn apply_wt(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
+        self.apply(
+            segments,
+            v,
+            |i, x| x * self.w[i],
+            |sc, m| &sc.r * m * sc.r.transpose(),
+        )
+    }
+
+    /// v ↦ (WᵀW)⁻¹ v.
+    pub fn apply_inverse_wtw(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
+        self.apply(
+            segments,
+            v,
+            |i, x| x / (self.w[i] * self.w[i]),
+            |sc, m| {
+                let b = &sc.r_inv_t * sc.r_inv_t.transpose();
+                &b * m * &b
+            },
+        )
+    }
+
+    fn apply(
+        &self,
+        segments: &[Segment],
+        v: &DVector<f64>,
+        orthant: impl Fn(usize, f64) -> f64,
+        cone: impl Fn(&PsdScaling, &DMatrix<f64>) -> DMatrix<f64>,
+    ) -> DVector<f64> {
+        let mut out = DVector::zeros(v.len());
+        for (segment, scaling) in segments.iter().zip(&self.psd) {
+            let range = segment.range();
+            match (segment.psd, scaling) {
+                (Some(n), Some(sc)) => {
+                    let m = smat(n, &v.as_slice()[range.clone()]);
+                    svec_into(&cone(sc, &m), &mut out.as_mut_slice()[range]);
+                }
+                _ => {
+                    for i in range {
+                        out[i] = orthant(i, v[i]);
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// R = L_s V Λ^{-1/2} and R⁻ᵀ = L_z U Λ^{-1/2} from L_zᵀ L_s = U Λ Vᵀ.
+fn psd_scaling(n: usize, s: &[f64], z: &[f64]) -> Option<PsdScaling> {
+    let ls = Cholesky::new(smat(n, s))?.l();
+    let lz = Cholesky::new(smat(n, z))?.l();
+    let svd = (lz.transpose() * &ls).svd(true, true);
+    let u = svd.u?;
+    let v = svd.v_t?.transpose();
+    let lambda: Vec<f64> = svd.singular_values.iter().copied().collect();
+    if lambda
+        .iter()
+        .any(|&l| l.is_nan() || l <= 0.0 || !l.is_finite())
+    {
+        return None;
+    }
+    let inv_sqrt = DMatrix::from_diagonal(&DVector::from_iterator(
+        n,
+        lambda.iter().map(|l| 1.0 / l.sqrt()),
+    ));
+    Some(PsdScaling {
+        r: ls * v * &inv_sqrt,
+        r_inv_t: lz * u * inv_sqrt,
+        lambda,
+    })
+}
+
+/// a ∘ b on the side cones (the symmetrised product on PSD segments).
+pub(super) fn jordan_product(
+    segments: &[Segment],
+    a: &DVector<f64>,
+    b: &DVector<f64>,
+) -> DVector<f64> {
+    let mut out = a.component_mul(b);
+    for segment in segments {
+        if let Some(n) = segment.psd {
+            let range = segment.range();
+            let ma = smat(n, &a.as_slice()[range.clone()]);
+            let mb = smat(n, &b.as_slice()[range.clone()]);
+            let product = (&ma * &mb + &mb * &ma) * 0.5;
+            svec_into(&product, &mut out.as_mut_slice()[range]);
+        }
+    }
+    out
+}
+
+/// ξ with λ ∘ ξ = v, for λ diagonal on PSD segments.
+pub(super) fn jordan_divide(segments: &[Segment], lambda: &[f64], v: &DVector<f64>) -> DVector<f64> {
+    let mut out = DVector::from_iterator(v.len(), v.iter().zip(lambda).map(|(v, l)| v / l));
+    for segment in segments {
+        if let Some(n) = segment.psd {
+            let diagonal = psd_diagonal(segment, n, lambda);
+            let mut k = 0;
+            for j in 0..n {
+                for i in 0..=j {
+                    let idx = segment.offset + k;
+                    out[idx] = 2.0 * v[idx] / (diagonal[i] + diagonal[j]);
+                    k += 1;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The diagonal of a PSD segment of a diagonal λ.
+fn psd_diagonal(segment: &Segment, n: usize, lambda: &[f64]) -> Vec<f64> {
+    (0..n)
+        .map(|j| lambda[segment.offset + svec_diagonal(j)])
+        .collect()
+}
+
+/// The identity of the side cones (1 on orthants, I on PSD segments).
+pub(super) fn cone_identity(segments: &[Segment], m: usize) -> DVector<f64> {
+    let mut e = DVector::from_element(m, 1.0);
+    for segment in segments {
+        if let Some(n) = segment.psd {
+            e.rows_mut(segment.offset, segment.len).fill(0.0);
+            for j in 0..n {
+                e[segment.offset + svec_diagonal(j)] = 1.0;
+            }
+        }
+    }
+    e
+}
+
+/// Largest α ≤ ∞ with λ + α d in the side cones, for a diagonal λ.
+pub(super) fn side_step_limit(segments: &[Segment], lambda: &[f64], d: &DVector<f64>) -> f64 {
+    let mut alpha = f64::INFINITY;
+    for segment in segments {
+        let range = segment.range();
+        match segment.psd {
+            Some(n) => {
+                let diagonal = psd_diagonal(segment, n, lambda);
+                alpha = alpha.min(psd_step_limit(&diagonal, &d.as_slice()[range]));
+            }
+            None => {
+                for i in range {
+                    if d[i] < 0.0 {
+                        alpha = alpha.min(-lambda[i] / d[i]);
+                    }
+                }
+            }
+        }
+    }
+    alpha
+}
+
+/// Largest α with λ + α d in the cone, for λ = diag(λ) in svec form: the
+/// smallest eigenvalue of Λ^{-1/2} D Λ^{-1/2}.
+pub(super) fn psd_step_limit(lambda: &[f64], d: &[f64]) -> f64 {
+    let n = lambda.len();
+    let mut m = smat(n, d);
+    for i in 0..n {
+        for j in 0..n {
+            m[(i, j)] /= (lambda[i] * lambda[j]).sqrt();
+        }
+    }
+    let smallest = m.symmetric_eigenvalues().min();
+    if smallest < 0.0 {
+        -1.0 / smallest
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Shifts v into the interior of the side cones if it is not already
+/// (v + (1 + t) e with t the largest violation), as in `coneqp`.
+pub(super) fn shift_into_cones(segments: &[Segment], v: &mut DVector<f64>) {
+    let mut violation = f64::NEG_INFINITY;
+    for segment in segments {
+        let range = segment.range();
+        let smallest = match segment.psd {
+            Some(n) => smat(n, &v.as_slice()[range]).symmetric_eigenvalues().min(),
+            None => v.as_slice()[range]
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min),
+        };
+        violation = violation.max(-smallest);
+    }
+    if violation >= -1e-8 {
+        let e = cone_identity(segments, v.len());
+        *v += e * (1.0 + violation.max(0.0));
+    }
+}
+
+/// The same shift for the two L1 orthants together (one cone of 2r).
+pub(super) fn shift_orthant(v: &mut DVector<f64>, other: &mut DVector<f64>) {
+    let smallest = v.min().min(other.min());
+    if -smallest >= -1e-8 {
+        let shift = 1.0 + (-smallest).max(0.0);
+        v.add_scalar_mut(shift);
+        other.add_scalar_mut(shift);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn step_to_the_boundary() {
+        // Step to the boundary of diag(1, 2) along −I is 1.
+        let limit = psd_step_limit(&[1.0, 2.0], &[-1.0, 0.0, -1.0]);
+        assert!((limit - 1.0).abs() < 1e-12, "{limit}");
+    }
+}

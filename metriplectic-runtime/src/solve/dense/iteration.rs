@@ -1,0 +1,473 @@
+//! The interior-point iteration: an infeasible path-following method with
+//! Nesterov–Todd scaling and Mehrotra's predictor–corrector, organised like
+//! Clarabel's `solve()` as named steps: residuals, termination, scaling,
+//! predictor, centering, corrector, step length, update.
+
+use std::time::Instant;
+
+use nalgebra::DVector;
+
+use super::cones::{
+    cone_identity, jordan_divide, jordan_product, shift_into_cones, shift_orthant,
+    side_step_limit, SideScaling,
+};
+use super::newton::{Kkt, Newton};
+use super::Reduced;
+use crate::solve::{SolveStatus, SolverSettings};
+
+/// Step to this fraction of the distance to the cone boundary.
+const STEP_FRACTION: f64 = 0.99;
+/// Stop after this many iterations without the merit (the largest of the
+/// relative gap and the two relative residuals) falling below
+/// `STALL_FACTOR` times its best value.
+const STALL_ITERATIONS: usize = 15;
+const STALL_FACTOR: f64 = 0.9;
+/// Clarabel's reduced tolerances, for [`SolveStatus::AlmostSolved`].
+const REDUCED_GAP: f64 = 5e-5;
+const REDUCED_FEAS: f64 = 1e-4;
+
+/// The iterate: y and the L1 epigraph variables e, the slacks s and the
+/// multipliers z of the two L1 orthants (1, 2) and of the side cones (c).
+#[derive(Clone)]
+pub(super) struct Point {
+    pub y: DVector<f64>,
+    e: DVector<f64>,
+    s1: DVector<f64>,
+    s2: DVector<f64>,
+    pub sc: DVector<f64>,
+    z1: DVector<f64>,
+    z2: DVector<f64>,
+    zc: DVector<f64>,
+}
+
+impl Point {
+    /// A non-finite point, returned when the method cannot even start.
+    fn failed(p: &Reduced) -> Self {
+        let (k, r, m) = (p.a.ncols(), p.t.len(), p.h.len());
+        Point {
+            y: DVector::from_element(k, f64::NAN),
+            e: DVector::zeros(r),
+            s1: DVector::zeros(r),
+            s2: DVector::zeros(r),
+            sc: DVector::zeros(m),
+            z1: DVector::zeros(r),
+            z2: DVector::zeros(r),
+            zc: DVector::zeros(m),
+        }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.y
+            .iter()
+            .chain(self.s1.iter())
+            .chain(self.z1.iter())
+            .all(|v| v.is_finite())
+    }
+}
+
+/// Runs the method on `p`: the final point, its status and the iterations taken.
+pub(super) fn iterate(p: &Reduced, settings: &SolverSettings) -> (Point, SolveStatus, u32) {
+    let start = Instant::now();
+    let Some(mut x) = initial_point(p) else {
+        return (Point::failed(p), SolveStatus::NumericalError, 0);
+    };
+    let mut progress = Progress::default();
+    for iteration in 0..=settings.max_iter {
+        // Residuals and termination.
+        let residuals = Residuals::new(p, &x);
+        if settings.verbose {
+            residuals.log(iteration);
+        }
+        if residuals.converged(
+            settings.tol_gap_abs,
+            settings.tol_gap_rel,
+            settings.tol_feas,
+        ) {
+            return (x, SolveStatus::Solved, iteration);
+        }
+        progress.record(&residuals, &x);
+        let limit = if progress.stalled() {
+            // Without a strictly feasible point (e.g. the full SOS tables)
+            // the iterates can stall near the optimum and then diverge.
+            Some(SolveStatus::InsufficientProgress)
+        } else if iteration == settings.max_iter {
+            Some(SolveStatus::MaxIterations)
+        } else if settings
+            .time_limit
+            .is_some_and(|limit| start.elapsed().as_secs_f64() > limit)
+        {
+            Some(SolveStatus::MaxTime)
+        } else {
+            None
+        };
+        if let Some(status) = limit {
+            return progress.finish(x, status, iteration);
+        }
+
+        // Scaling and the Newton system.
+        let Some(scaling) = SideScaling::new(&p.segments, &x.sc, &x.zc) else {
+            return progress.finish(x, SolveStatus::NumericalError, iteration);
+        };
+        let Some(step) = Step::new(p, &x, &scaling) else {
+            return progress.finish(x, SolveStatus::NumericalError, iteration);
+        };
+
+        // Predictor, centering, corrector.
+        let affine = step.direction(&residuals, &step.affine_target());
+        let sigma = (1.0 - step.step_limit(&affine).min(1.0)).powi(3);
+        let mu = residuals.gap / barrier_degree(p);
+        let combined = step.direction(&residuals, &step.corrector_target(&affine, sigma * mu));
+
+        // Step length and update.
+        let alpha = (STEP_FRACTION * step.step_limit(&combined)).min(1.0);
+        if alpha.is_nan() || alpha <= 1e-10 {
+            return progress.finish(x, SolveStatus::InsufficientProgress, iteration);
+        }
+        step.update(&mut x, &combined, alpha);
+        if !x.is_finite() {
+            return progress.finish(x, SolveStatus::NumericalError, iteration);
+        }
+    }
+    (x, SolveStatus::MaxIterations, settings.max_iter)
+}
+
+/// ν: the barrier degree (one per orthant component, n per n×n PSD cone).
+fn barrier_degree(p: &Reduced) -> f64 {
+    (2 * p.t.len()) as f64
+        + p.segments
+            .iter()
+            .map(|s| s.psd.unwrap_or(s.len) as f64)
+            .sum::<f64>()
+}
+
+/// The best iterate that met the reduced tolerances, and how long the merit
+/// has not improved.
+#[derive(Default)]
+struct Progress {
+    best: Option<(f64, Point)>,
+    best_merit: Option<f64>,
+    stalled: usize,
+}
+
+impl Progress {
+    fn record(&mut self, residuals: &Residuals, x: &Point) {
+        let merit = residuals.merit();
+        if residuals.converged(REDUCED_GAP, REDUCED_GAP, REDUCED_FEAS)
+            && self.best.as_ref().is_none_or(|(m, _)| merit < *m)
+        {
+            self.best = Some((merit, x.clone()));
+        }
+        if merit < STALL_FACTOR * self.best_merit.unwrap_or(f64::INFINITY) {
+            (self.best_merit, self.stalled) = (Some(merit), 0);
+        } else {
+            self.stalled += 1;
+        }
+    }
+
+    fn stalled(&self) -> bool {
+        self.stalled >= STALL_ITERATIONS
+    }
+
+    /// Stopping early: the best iterate that met the reduced tolerances, if
+    /// any, as `AlmostSolved`; otherwise `x` with `status`.
+    fn finish(self, x: Point, status: SolveStatus, iteration: u32) -> (Point, SolveStatus, u32) {
+        match self.best {
+            Some((_, point)) => (point, SolveStatus::AlmostSolved, iteration),
+            None => (x, status, iteration),
+        }
+    }
+}
+
+/// The residuals r_x = Gᵀz + c, r_z = G x + s − h, the objectives and the gap.
+struct Residuals {
+    rx_y: DVector<f64>,
+    rx_e: DVector<f64>,
+    rz1: DVector<f64>,
+    rz2: DVector<f64>,
+    rzc: DVector<f64>,
+    primal_cost: f64,
+    dual_cost: f64,
+    gap: f64,
+    primal_ok_at: f64,
+    dual_ok_at: f64,
+}
+
+impl Residuals {
+    fn new(p: &Reduced, x: &Point) -> Self {
+        let ay = &p.a * &x.y;
+        let mut rx_y = p.a.tr_mul(&(&x.z2 - &x.z1));
+        if p.g.nrows() > 0 {
+            rx_y += p.g.tr_mul(&x.zc);
+        }
+        let rx_e = (-&x.z1 - &x.z2).add_scalar(p.weight);
+        let rz1 = -&ay - &x.e + &x.s1 + &p.t;
+        let rz2 = &ay - &x.e + &x.s2 - &p.t;
+        let rzc = &p.g * &x.y + &x.sc - &p.h;
+        let primal_cost = p.weight * x.e.sum();
+        let dual_cost = p.t.dot(&x.z1) - p.t.dot(&x.z2) - p.h.dot(&x.zc);
+        let gap = x.s1.dot(&x.z1) + x.s2.dot(&x.z2) + x.sc.dot(&x.zc);
+        let x_norm = x.y.amax().max(x.e.amax());
+        let s_norm = x.s1.amax().max(x.s2.amax()).max(amax(&x.sc));
+        let z_norm = x.z1.amax().max(x.z2.amax()).max(amax(&x.zc));
+        let h_norm = p.t.amax().max(amax(&p.h));
+        Self {
+            rx_y,
+            rx_e,
+            rz1,
+            rz2,
+            rzc,
+            primal_cost,
+            dual_cost,
+            gap,
+            primal_ok_at: (h_norm + x_norm + s_norm).max(1.0),
+            dual_ok_at: (p.weight + x_norm + z_norm).max(1.0),
+        }
+    }
+
+    fn primal_infeasibility(&self) -> f64 {
+        self.rz1.amax().max(self.rz2.amax()).max(amax(&self.rzc)) / self.primal_ok_at
+    }
+
+    fn dual_infeasibility(&self) -> f64 {
+        self.rx_y.amax().max(self.rx_e.amax()) / self.dual_ok_at
+    }
+
+    /// The largest of the relative gap and the two relative residuals.
+    fn merit(&self) -> f64 {
+        let gap = (self.primal_cost - self.dual_cost).abs()
+            / self.primal_cost.abs().min(self.dual_cost.abs()).max(1.0);
+        gap.max(self.primal_infeasibility())
+            .max(self.dual_infeasibility())
+    }
+
+    /// Clarabel's tests: absolute or relative gap, and both residuals.
+    fn converged(&self, gap_abs: f64, gap_rel: f64, feas: f64) -> bool {
+        let gap = (self.primal_cost - self.dual_cost).abs();
+        let scale = self.primal_cost.abs().min(self.dual_cost.abs());
+        (gap <= gap_abs || gap <= gap_rel * scale)
+            && self.primal_infeasibility() <= feas
+            && self.dual_infeasibility() <= feas
+    }
+
+    fn log(&self, iteration: u32) {
+        eprintln!(
+            "dense ipm {iteration:>3}: pcost {:+.8e} dcost {:+.8e} gap {:.2e} pres {:.2e} dres {:.2e}",
+            self.primal_cost,
+            self.dual_cost,
+            self.gap,
+            self.primal_infeasibility(),
+            self.dual_infeasibility()
+        );
+    }
+}
+
+fn amax(v: &DVector<f64>) -> f64 {
+    if v.is_empty() {
+        0.0
+    } else {
+        v.amax()
+    }
+}
+
+/// A complementarity target d_s in the scaled space, per cone block.
+struct Target {
+    s1: DVector<f64>,
+    s2: DVector<f64>,
+    sc: DVector<f64>,
+}
+
+/// A direction in (y, e, s, z), with the scaled slack and multiplier
+/// directions W⁻ᵀ ds and W dz the step length needs.
+struct Direction {
+    y: DVector<f64>,
+    e: DVector<f64>,
+    z1: DVector<f64>,
+    z2: DVector<f64>,
+    zc: DVector<f64>,
+    s1_scaled: DVector<f64>,
+    s2_scaled: DVector<f64>,
+    sc_scaled: DVector<f64>,
+    z1_scaled: DVector<f64>,
+    z2_scaled: DVector<f64>,
+    zc_scaled: DVector<f64>,
+}
+
+/// Everything one iteration's directions share: the scaling of every cone
+/// and the factorised Newton system.
+struct Step<'a> {
+    problem: &'a Reduced,
+    scaling: &'a SideScaling,
+    newton: Newton<'a>,
+    /// λ = √(s z) and w = √(s/z) of the two L1 orthants.
+    lambda1: DVector<f64>,
+    lambda2: DVector<f64>,
+    w1: DVector<f64>,
+    w2: DVector<f64>,
+    /// λ of the side cones (diagonal on PSD blocks).
+    lambda_c: DVector<f64>,
+}
+
+impl<'a> Step<'a> {
+    fn new(p: &'a Reduced, x: &Point, scaling: &'a SideScaling) -> Option<Self> {
+        let d1 = x.z1.component_div(&x.s1);
+        let d2 = x.z2.component_div(&x.s2);
+        let newton = Newton::new(p, scaling, d1, d2)?;
+        Some(Self {
+            problem: p,
+            scaling,
+            newton,
+            lambda1: x.s1.component_mul(&x.z1).map(f64::sqrt),
+            lambda2: x.s2.component_mul(&x.z2).map(f64::sqrt),
+            w1: x.s1.component_div(&x.z1).map(f64::sqrt),
+            w2: x.s2.component_div(&x.z2).map(f64::sqrt),
+            lambda_c: DVector::from_column_slice(&scaling.lambda),
+        })
+    }
+
+    /// The predictor's target d_s = −λ∘λ.
+    fn affine_target(&self) -> Target {
+        Target {
+            s1: -self.lambda1.component_mul(&self.lambda1),
+            s2: -self.lambda2.component_mul(&self.lambda2),
+            sc: -jordan_product(&self.problem.segments, &self.lambda_c, &self.lambda_c),
+        }
+    }
+
+    /// The corrector's target d_s = −λ∘λ − Δs̃∘Δz̃ + σμe.
+    fn corrector_target(&self, affine: &Direction, target: f64) -> Target {
+        let segments = &self.problem.segments;
+        let m = self.problem.h.len();
+        let lambda_sq_c = jordan_product(segments, &self.lambda_c, &self.lambda_c);
+        Target {
+            s1: (-self.lambda1.component_mul(&self.lambda1)
+                - affine.s1_scaled.component_mul(&affine.z1_scaled))
+            .add_scalar(target),
+            s2: (-self.lambda2.component_mul(&self.lambda2)
+                - affine.s2_scaled.component_mul(&affine.z2_scaled))
+            .add_scalar(target),
+            sc: -&lambda_sq_c
+                - jordan_product(segments, &affine.sc_scaled, &affine.zc_scaled)
+                + cone_identity(segments, m) * target,
+        }
+    }
+
+    /// The Newton direction for a complementarity target: ξ = λ ⊘ d_s,
+    /// bz = −r_z − Wᵀξ, and back ds = Wᵀ(ξ − W dz).
+    fn direction(&self, residuals: &Residuals, target: &Target) -> Direction {
+        let segments = &self.problem.segments;
+        let xi1 = target.s1.component_div(&self.lambda1);
+        let xi2 = target.s2.component_div(&self.lambda2);
+        let xic = jordan_divide(segments, &self.scaling.lambda, &target.sc);
+        let bz1 = -&residuals.rz1 - self.w1.component_mul(&xi1);
+        let bz2 = -&residuals.rz2 - self.w2.component_mul(&xi2);
+        let bzc = -&residuals.rzc - self.scaling.apply_wt(segments, &xic);
+        let Kkt { y, e, z1, z2, zc } = self.newton.solve(&Kkt {
+            y: -&residuals.rx_y,
+            e: -&residuals.rx_e,
+            z1: bz1,
+            z2: bz2,
+            zc: bzc,
+        });
+        let z1_scaled = self.w1.component_mul(&z1);
+        let z2_scaled = self.w2.component_mul(&z2);
+        let zc_scaled = self.scaling.apply_w(segments, &zc);
+        Direction {
+            s1_scaled: &xi1 - &z1_scaled,
+            s2_scaled: &xi2 - &z2_scaled,
+            sc_scaled: &xic - &zc_scaled,
+            y,
+            e,
+            z1,
+            z2,
+            zc,
+            z1_scaled,
+            z2_scaled,
+            zc_scaled,
+        }
+    }
+
+    /// The largest step along `d` that stays in every cone.
+    fn step_limit(&self, d: &Direction) -> f64 {
+        let mut alpha = f64::INFINITY;
+        for (l, v) in [
+            (&self.lambda1, &d.s1_scaled),
+            (&self.lambda1, &d.z1_scaled),
+            (&self.lambda2, &d.s2_scaled),
+            (&self.lambda2, &d.z2_scaled),
+        ] {
+            for (l, v) in l.iter().zip(v.iter()) {
+                if *v < 0.0 {
+                    alpha = alpha.min(-l / v);
+                }
+            }
+        }
+        let lambda = self.lambda_c.as_slice();
+        for v in [&d.sc_scaled, &d.zc_scaled] {
+            alpha = alpha.min(side_step_limit(&self.problem.segments, lambda, v));
+        }
+        alpha
+    }
+
+    /// x ← x + α d, the slacks mapped back from the scaled space (ds = Wᵀ Δs̃).
+    fn update(&self, x: &mut Point, d: &Direction, alpha: f64) {
+        x.y += &d.y * alpha;
+        x.e += &d.e * alpha;
+        x.s1 += self.w1.component_mul(&d.s1_scaled) * alpha;
+        x.s2 += self.w2.component_mul(&d.s2_scaled) * alpha;
+        x.sc += self
+            .scaling
+            .apply_wt(&self.problem.segments, &d.sc_scaled)
+            * alpha;
+        x.z1 += &d.z1 * alpha;
+        x.z2 += &d.z2 * alpha;
+        x.zc += &d.zc * alpha;
+    }
+}
+
+/// `coneqp`'s starting point: least-squares primal and least-norm dual
+/// solutions of the KKT system with W = I, shifted into the cones.
+fn initial_point(p: &Reduced) -> Option<Point> {
+    let (k, r, m) = (p.a.ncols(), p.t.len(), p.h.len());
+    let identity = SideScaling::identity(&p.segments, m);
+    let ones = DVector::from_element(r, 1.0);
+    let newton = Newton::new(p, &identity, ones.clone(), ones)?;
+    let zero_r = DVector::zeros(r);
+    // Primal: bz = h gives dz = G x − h = −s.
+    let Kkt { y, e, z1, z2, zc } = newton.solve(&Kkt {
+        y: DVector::zeros(k),
+        e: zero_r.clone(),
+        z1: -&p.t,
+        z2: p.t.clone(),
+        zc: p.h.clone(),
+    });
+    let mut s1 = -z1;
+    let mut s2 = -z2;
+    let mut sc = -zc;
+    shift_orthant(&mut s1, &mut s2);
+    shift_into_cones(&p.segments, &mut sc);
+    // Dual: bx = −c gives G x = z with Gᵀ z = −c.
+    let Kkt {
+        mut z1,
+        mut z2,
+        mut zc,
+        ..
+    } = newton.solve(&Kkt {
+        y: DVector::zeros(k),
+        e: DVector::from_element(r, -p.weight),
+        z1: zero_r.clone(),
+        z2: zero_r,
+        zc: DVector::zeros(m),
+    });
+    shift_orthant(&mut z1, &mut z2);
+    shift_into_cones(&p.segments, &mut zc);
+    Some(Point {
+        y,
+        e,
+        s1,
+        s2,
+        sc,
+        z1,
+        z2,
+        zc,
+    })
+}

@@ -1,0 +1,192 @@
+//! The Newton system of one interior-point iteration, reduced to the normal
+//! equations on y: Aᵀ D̃ A + Gᵀ (WᵀW)⁻¹ G, factorised once per iteration and
+//! solved for the predictor and the corrector.
+
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+
+use super::cones::SideScaling;
+use super::Reduced;
+
+/// A right-hand side or solution of the KKT system: the x part (y, e) and
+/// the z part (z₁, z₂, z_c).
+#[derive(Clone)]
+pub(super) struct Kkt {
+    pub y: DVector<f64>,
+    pub e: DVector<f64>,
+    pub z1: DVector<f64>,
+    pub z2: DVector<f64>,
+    pub zc: DVector<f64>,
+}
+
+impl Kkt {
+    fn plus(&self, other: &Kkt) -> Kkt {
+        Kkt {
+            y: &self.y + &other.y,
+            e: &self.e + &other.e,
+            z1: &self.z1 + &other.z1,
+            z2: &self.z2 + &other.z2,
+            zc: &self.zc + &other.zc,
+        }
+    }
+
+    fn minus(&self, other: &Kkt) -> Kkt {
+        Kkt {
+            y: &self.y - &other.y,
+            e: &self.e - &other.e,
+            z1: &self.z1 - &other.z1,
+            z2: &self.z2 - &other.z2,
+            zc: &self.zc - &other.zc,
+        }
+    }
+}
+
+/// Factorised reduced KKT system at one scaling.
+pub(super) struct Newton<'a> {
+    problem: &'a Reduced,
+    scaling: &'a SideScaling,
+    /// z/s of the two L1 orthants.
+    d1: DVector<f64>,
+    d2: DVector<f64>,
+    schur: Cholesky<f64, Dyn>,
+}
+
+impl<'a> Newton<'a> {
+    /// Forms and factorises Aᵀ D̃ A + Gᵀ (WᵀW)⁻¹ G, with D̃ = 4 d₁d₂/(d₁ + d₂).
+    pub fn new(
+        problem: &'a Reduced,
+        scaling: &'a SideScaling,
+        d1: DVector<f64>,
+        d2: DVector<f64>,
+    ) -> Option<Self> {
+        let schur = schur_complement(problem, scaling, &d1, &d2);
+        let schur = factorise(schur)?;
+        Some(Self {
+            problem,
+            scaling,
+            d1,
+            d2,
+            schur,
+        })
+    }
+
+    /// Solves [0 Gᵀ; G −WᵀW][dx; dz] = [bx; bz] for x = (y, e), z = (z₁, z₂, z_c),
+    /// with two steps of iterative refinement on the unreduced system (the
+    /// reduction squares the condition number near the optimum).
+    pub fn solve(&self, rhs: &Kkt) -> Kkt {
+        let mut solution = self.solve_reduced(rhs);
+        for _ in 0..2 {
+            let residual = rhs.minus(&self.apply(&solution));
+            solution = solution.plus(&self.solve_reduced(&residual));
+        }
+        solution
+    }
+
+    /// The unreduced KKT operator [0 Gᵀ; G −WᵀW] applied to (dx, dz).
+    fn apply(&self, v: &Kkt) -> Kkt {
+        let p = self.problem;
+        let ay = &p.a * &v.y;
+        let mut y = p.a.tr_mul(&(&v.z2 - &v.z1));
+        if p.g.nrows() > 0 {
+            y += p.g.tr_mul(&v.zc);
+        }
+        let wtw_zc = self
+            .scaling
+            .apply_wt(&p.segments, &self.scaling.apply_w(&p.segments, &v.zc));
+        Kkt {
+            y,
+            e: -&v.z1 - &v.z2,
+            z1: -&ay - &v.e - v.z1.component_div(&self.d1),
+            z2: &ay - &v.e - v.z2.component_div(&self.d2),
+            zc: &p.g * &v.y - wtw_zc,
+        }
+    }
+
+    /// One solve through the Schur complement on y.
+    fn solve_reduced(&self, b: &Kkt) -> Kkt {
+        let p = self.problem;
+        let d1b = self.d1.component_mul(&b.z1);
+        let d2b = self.d2.component_mul(&b.z2);
+        let dcb = self.scaling.apply_inverse_wtw(&p.segments, &b.zc);
+        let sum = &self.d1 + &self.d2;
+        let diff = &self.d1 - &self.d2;
+        let rhs_e = &b.e - &d1b - &d2b;
+        let ratio = diff.component_div(&sum);
+        let mut rhs_y =
+            &b.y + p.a.tr_mul(&(&d2b - &d1b)) - p.a.tr_mul(&ratio.component_mul(&rhs_e));
+        if p.g.nrows() > 0 {
+            rhs_y += p.g.tr_mul(&dcb);
+        }
+        let dy = self.schur.solve(&rhs_y);
+        let ady = &p.a * &dy;
+        let de = (&rhs_e - diff.component_mul(&ady)).component_div(&sum);
+        // dz = (WᵀW)⁻¹ (G dx − bz) with G = [[−A, −I]; [A, −I]; [G_c, 0]].
+        let z1 = self.d1.component_mul(&(-&ady - &de - &b.z1));
+        let z2 = self.d2.component_mul(&(&ady - &de - &b.z2));
+        let zc = if p.g.nrows() > 0 {
+            self.scaling
+                .apply_inverse_wtw(&p.segments, &(&p.g * &dy - &b.zc))
+        } else {
+            DVector::zeros(0)
+        };
+        Kkt {
+            y: dy,
+            e: de,
+            z1,
+            z2,
+            zc,
+        }
+    }
+}
+
+/// Aᵀ D̃ A + Gᵀ (WᵀW)⁻¹ G, symmetrised.
+fn schur_complement(
+    problem: &Reduced,
+    scaling: &SideScaling,
+    d1: &DVector<f64>,
+    d2: &DVector<f64>,
+) -> DMatrix<f64> {
+    let k = problem.a.ncols();
+    let weights = DVector::from_iterator(
+        d1.len(),
+        d1.iter()
+            .zip(d2.iter())
+            .map(|(a, b)| (4.0 * a * b / (a + b)).sqrt()),
+    );
+    let mut scaled = problem.a.clone();
+    for mut column in scaled.column_iter_mut() {
+        column.component_mul_assign(&weights);
+    }
+    let mut schur = scaled.tr_mul(&scaled);
+    if problem.g.nrows() > 0 {
+        let mut hg = DMatrix::zeros(problem.g.nrows(), k);
+        for (j, column) in problem.g.column_iter().enumerate() {
+            let mapped = scaling.apply_inverse_wtw(&problem.segments, &column.into_owned());
+            hg.set_column(j, &mapped);
+        }
+        schur += problem.g.tr_mul(&hg);
+    }
+    (&schur + schur.transpose()) * 0.5
+}
+
+/// Cholesky of the Schur complement; on breakdown retried with a small
+/// diagonal shift (a rank-deficient regression with an unconstrained direction).
+fn factorise(schur: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
+    let k = schur.nrows();
+    let scale = schur.diagonal().amax().max(f64::MIN_POSITIVE);
+    let mut shift = 0.0;
+    for _ in 0..4 {
+        let mut shifted = schur.clone();
+        for i in 0..k {
+            shifted[(i, i)] += shift;
+        }
+        if let Some(factor) = Cholesky::new(shifted) {
+            return Some(factor);
+        }
+        shift = if shift == 0.0 {
+            1e-13 * scale
+        } else {
+            shift * 1e3
+        };
+    }
+    None
+}

@@ -1,0 +1,122 @@
+//! Solver settings and the choice of backend.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{invalid, Result};
+
+/// Which interior-point solver runs an [`L1Problem`](crate::L1Problem).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum SolverBackend {
+    /// The runtime's dense interior-point method (the default): the L1
+    /// auxiliaries are eliminated analytically and each iteration factorises
+    /// one small dense matrix. About an order of magnitude faster than
+    /// Clarabel on the paper's problems (see BENCHMARKS.md in the repository).
+    #[default]
+    Dense,
+    /// Clarabel on a sparse conic form of the problem (cargo feature
+    /// `clarabel`, which links BLAS/LAPACK for its PSD cone).
+    #[cfg(feature = "clarabel")]
+    #[cfg_attr(docsrs, doc(cfg(feature = "clarabel")))]
+    Clarabel(crate::L1Formulation),
+}
+
+/// Settings of one solve.
+///
+/// The defaults are Clarabel's own tolerances (both backends apply the same
+/// termination tests): at most 200 iterations, no time limit, gaps and
+/// feasibility to 1e-8, no log, objective scale 1, the dense backend.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SolverSettings {
+    /// Interior-point iteration limit per solve. Default 200.
+    pub max_iter: u32,
+    /// Wall-clock limit per solve in seconds. Default `None` (unlimited).
+    pub time_limit: Option<f64>,
+    /// Absolute duality-gap tolerance. Default 1e-8.
+    pub tol_gap_abs: f64,
+    /// Relative duality-gap tolerance. Default 1e-8.
+    pub tol_gap_rel: f64,
+    /// Primal/dual feasibility tolerance. Default 1e-8.
+    pub tol_feas: f64,
+    /// Print the solver's iteration log to standard error. Default `false`.
+    pub verbose: bool,
+    /// Factor multiplying the L1 objective before solving (the paper's code
+    /// uses 10⁴); reported costs are always recomputed unscaled. Default 1.
+    pub objective_scale: f64,
+    /// Which solver runs. Default [`SolverBackend::Dense`].
+    pub backend: SolverBackend,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            max_iter: 200,
+            time_limit: None,
+            tol_gap_abs: 1e-8,
+            tol_gap_rel: 1e-8,
+            tol_feas: 1e-8,
+            verbose: false,
+            objective_scale: 1.0,
+            backend: SolverBackend::default(),
+        }
+    }
+}
+
+impl SolverSettings {
+    /// Checks that every value is finite and positive where it must be.
+    pub fn validate(&self) -> Result<()> {
+        let positive = [
+            ("solver tol_gap_abs", self.tol_gap_abs),
+            ("solver tol_gap_rel", self.tol_gap_rel),
+            ("solver tol_feas", self.tol_feas),
+            ("solver objective_scale", self.objective_scale),
+        ];
+        for (what, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(invalid(
+                    what,
+                    format!("{value} is not a finite positive number"),
+                ));
+            }
+        }
+        if let Some(limit) = self.time_limit {
+            if limit.is_nan() || limit <= 0.0 {
+                return Err(invalid(
+                    "solver time_limit",
+                    format!("{limit} is not a positive number of seconds"),
+                ));
+            }
+        }
+        if self.max_iter == 0 {
+            return Err(invalid("solver max_iter", "must be at least 1"));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_validation_names_the_field() {
+        let settings = SolverSettings {
+            tol_feas: f64::NAN,
+            ..SolverSettings::default()
+        };
+        let err = settings.validate().unwrap_err().to_string();
+        assert!(err.contains("tol_feas"), "{err}");
+    }
+
+    #[cfg(feature = "clarabel")]
+    #[test]
+    fn defaults_are_clarabels() {
+        let theirs = clarabel::solver::DefaultSettings::<f64>::default();
+        let ours = SolverSettings::default();
+        assert_eq!(ours.max_iter, theirs.max_iter);
+        assert_eq!(ours.tol_gap_abs, theirs.tol_gap_abs);
+        assert_eq!(ours.tol_gap_rel, theirs.tol_gap_rel);
+        assert_eq!(ours.tol_feas, theirs.tol_feas);
+    }
+}
