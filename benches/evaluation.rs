@@ -21,15 +21,16 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
+use metriplectic::systems::{Linear2d, RigidBody};
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::system::metric_pair_index;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-#[path = "../tests/common/paper_systems.rs"]
-mod paper_systems;
-
-use paper_systems::{Linear2d, RigidBody};
+/// Position of the upper-triangle pair (j, k) among the n(n+1)/2 pairs of θ.
+fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
+    let (j, k) = (j.min(k), j.max(k));
+    j * dim - j * j.saturating_sub(1) / 2 + (k - j)
+}
 
 /// Largest state dimension the fixed-size scratch arrays below allow.
 const MAX_DIM: usize = 8;

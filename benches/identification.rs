@@ -27,25 +27,34 @@ use std::time::Instant;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SupportedConeT};
-use metriplectic_runtime::identify::IterationRecord;
-use metriplectic_runtime::model::identity_metric;
+use metriplectic::systems::{
+    linear2d_data, perturbed_reference_entropy, rigid_body_data, Linear2d, RigidBody,
+};
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::system::metric_pair_index;
 use metriplectic_runtime::{
-    entropy_search, identify_with_observer, metric_search, model_cost, EntropySearchOptions,
-    IdentifyConfig, L1Formulation, MetricSearchOptions, SolverBackend, SolverSettings,
+    entropy_search, identify_with_observer, metric_search, model_cost, IterationRecord,
+    L1Formulation, SearchOptions, SolverBackend, SolverSettings,
 };
 use nalgebra::DMatrix;
 use rand::seq::index::sample;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-#[path = "../tests/common/paper_systems.rs"]
-mod paper_systems;
+/// θ of K = c·I.
+fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {
+    let unit = Model::<S>::with_identity_metric(vec![0.0; S::entropy_coefficient_count()])
+        .expect("valid coefficients");
+    unit.metric_coefficients()
+        .iter()
+        .map(|t| t * scale)
+        .collect()
+}
 
-use paper_systems::{
-    linear2d_data, perturbed_reference_entropy, rigid_body_data, Linear2d, RigidBody,
-};
+/// Position of the upper-triangle pair (j, k) among the n(n+1)/2 pairs of θ.
+fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
+    let (j, k) = (j.min(k), j.max(k));
+    j * dim - j * j.saturating_sub(1) / 2 + (k - j)
+}
 
 metriplectic! {
     /// The SO(3) rigid body with an entropy basis of degree 4.
@@ -107,9 +116,12 @@ fn time_iterations<S: MetriplecticSystem>(
     backend: SolverBackend,
 ) -> Vec<IterationTiming> {
     let config = IdentifyConfig {
-        solver: SolverSettings {
-            backend,
-            ..SolverSettings::default()
+        search: SearchOptions {
+            solver: SolverSettings {
+                backend,
+                ..SolverSettings::default()
+            },
+            ..SearchOptions::default()
         },
         batch_size: Some(q),
         max_iterations: iterations,
@@ -337,14 +349,17 @@ fn solver_sections<S: MetriplecticSystem>(
     );
     println!("| backend | solver (s, median of {repeats}) | IPM iterations | per IPM iteration (ms) | assembly (s) | cost (sum) | status |");
     println!("|---|---|---|---|---|---|---|");
-    for backend in [SolverBackend::Dense, SolverBackend::Clarabel] {
-        let options = MetricSearchOptions {
+    for backend in [
+        SolverBackend::Dense,
+        SolverBackend::Clarabel(L1Formulation::default()),
+    ] {
+        let options = SearchOptions {
             eta,
             solver: SolverSettings {
                 backend,
                 ..SolverSettings::default()
             },
-            ..MetricSearchOptions::default()
+            ..SearchOptions::default()
         };
         let mut solver = Vec::new();
         let mut last = None;
@@ -376,17 +391,26 @@ fn solver_sections<S: MetriplecticSystem>(
     let mut dense_per_iteration = f64::NAN;
     for (backend, formulation) in [
         (SolverBackend::Dense, L1Formulation::Split),
-        (SolverBackend::Clarabel, L1Formulation::Slack),
-        (SolverBackend::Clarabel, L1Formulation::ExplicitResidual),
-        (SolverBackend::Clarabel, L1Formulation::Split),
+        (
+            SolverBackend::Clarabel(L1Formulation::Slack),
+            L1Formulation::Slack,
+        ),
+        (
+            SolverBackend::Clarabel(L1Formulation::ExplicitResidual),
+            L1Formulation::ExplicitResidual,
+        ),
+        (
+            SolverBackend::Clarabel(L1Formulation::Split),
+            L1Formulation::Split,
+        ),
     ] {
-        let options = EntropySearchOptions {
+        let options = SearchOptions {
             eta,
-            formulation,
             solver: SolverSettings {
                 backend,
                 ..SolverSettings::default()
             },
+            ..SearchOptions::default()
         };
         let mut solver = Vec::new();
         let mut assembly = Vec::new();
@@ -624,7 +648,10 @@ fn iteration_sections(linear: &Dataset, rigid: &Dataset, q_list: &[usize], itera
     println!("| system, backend | q | wall (s) | assembly (s, %) | solver (s, %) | other (s, %) | assembly + other | IPM iterations metric + entropy |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut walls = Vec::new();
-    for backend in [SolverBackend::Dense, SolverBackend::Clarabel] {
+    for backend in [
+        SolverBackend::Dense,
+        SolverBackend::Clarabel(L1Formulation::default()),
+    ] {
         let linear_t = time_iterations::<Linear2d>(linear, 2000, 0.5, iterations, backend);
         let rigid_t = time_iterations::<RigidBody>(rigid, 2000, 1.0, iterations, backend);
         split_row(&format!("Linear2d, {backend:?}"), 2000, &linear_t);

@@ -3,11 +3,10 @@
 
 use std::path::Path;
 
-use metriplectic_runtime::identify::History;
-use metriplectic_runtime::plot::{
-    free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels,
+use metriplectic_runtime::{
+    free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, History, Labels,
+    Simulation,
 };
-use metriplectic_runtime::simulate::Simulation;
 
 use crate::reproduction::{Experiment, ReproductionError, ZeroSet};
 

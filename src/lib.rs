@@ -1,12 +1,15 @@
-//! Paper reproductions and end-to-end tests for the `metriplectic` toolkit.
+//! Paper reproductions for the `metriplectic` toolkit, and what the
+//! examples, the end-to-end tests and the benchmarks share.
 //!
 //! The toolkit itself is [`metriplectic_runtime`] (which re-exports the
-//! `metriplectic!` macro). This package holds what the paper reproductions in
-//! `examples/` share — [`reproduction`] (data, identification, evaluation,
-//! outputs) and [`figures`] — so that the examples and the end-to-end tests in
-//! `tests/` run the same code.
+//! `metriplectic!` macro). This package holds the paper's systems, declared
+//! once ([`systems`]), its experiments ([`experiments`]), and the pipeline the
+//! reproductions in `examples/` run ([`reproduction`], [`figures`]), so that
+//! the examples and the tests in `tests/` run the same code.
 
+pub mod experiments;
 pub mod figures;
 pub mod reproduction;
+pub mod systems;
 
 pub use metriplectic_runtime;

@@ -17,15 +17,13 @@ use std::sync::OnceLock;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use metriplectic_runtime::conic::SolveStatus;
-use metriplectic_runtime::identify::{
-    identify_resume_with_observer, identify_with_observer, CheckpointConfig, IdentifyConfig,
-    IterationRecord, IterationScheme, StopReason,
-};
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::simulate::{simulate, OutputTimes, Simulation, SimulationOptions};
-use metriplectic_runtime::synthesize::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
-use metriplectic_runtime::{SolverBackend, SolverSettings, TrustRegion};
+use metriplectic_runtime::{
+    identify_resume_with_observer, identify_with_observer, simulate, synthesize, CheckpointConfig,
+    History, InitialStates, IterationRecord, IterationScheme, L1Formulation, OutputTimes,
+    SampleTimes, SearchOptions, Simulation, SimulationOptions, SolveStatus, SolverBackend,
+    SolverSettings, StopReason, SynthesisOptions, SyntheticData, TrustRegion,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -47,7 +45,7 @@ pub struct Options {
     /// Stop when the minibatch's mean absolute residual reaches this.
     #[arg(long, default_value_t = 1e-9)]
     pub tolerance: f64,
-    /// Output directory (default: target/paper/<experiment>).
+    /// Output directory (default: `target/paper/<experiment>`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Overwrite a non-empty output directory.
@@ -89,9 +87,9 @@ pub struct Options {
 /// Which solver runs the subproblems (see [`SolverBackend`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Solver {
-    /// [`SolverBackend::Dense`].
+    /// The runtime's dense interior-point method.
     Dense,
-    /// [`SolverBackend::Clarabel`].
+    /// Clarabel, in its default formulation.
     Clarabel,
 }
 
@@ -99,7 +97,7 @@ impl Solver {
     fn to_backend(self) -> SolverBackend {
         match self {
             Self::Dense => SolverBackend::Dense,
-            Self::Clarabel => SolverBackend::Clarabel,
+            Self::Clarabel => SolverBackend::Clarabel(L1Formulation::default()),
         }
     }
 }
@@ -185,11 +183,11 @@ pub struct Summary {
     /// Fraction of integration steps of the identified model's simulated
     /// trajectories where E decreased beyond the integrator's tolerance.
     pub free_energy_decrease_fraction: f64,
-    /// Subproblem solves that did not end with Clarabel's status `Solved`.
+    /// Subproblem solves that did not end with the status `Solved`.
     pub nonoptimal_solves: usize,
     /// Wall time of the whole run.
     pub seconds_total: f64,
-    /// Wall time inside Clarabel.
+    /// Wall time inside the solver (either backend).
     pub seconds_solver: f64,
 }
 
@@ -313,7 +311,6 @@ pub fn run_until<S: MetriplecticSystem>(
 
     let config = IdentifyConfig {
         batch_size: Some(options.batch_size),
-        eta: experiment.eta,
         max_iterations: iterations,
         tolerance: options.tolerance,
         seed: options.seed,
@@ -323,9 +320,13 @@ pub fn run_until<S: MetriplecticSystem>(
             options.seed,
         )?),
         scheme: options.scheme.to_config(),
-        solver: SolverSettings {
-            backend: options.solver.to_backend(),
-            ..SolverSettings::default()
+        search: SearchOptions {
+            eta: experiment.eta,
+            solver: SolverSettings {
+                backend: options.solver.to_backend(),
+                ..SolverSettings::default()
+            },
+            ..SearchOptions::default()
         },
         checkpoint: Some(CheckpointConfig {
             path: checkpoint.clone(),
@@ -421,6 +422,7 @@ pub fn run_until<S: MetriplecticSystem>(
             human_summary(
                 model,
                 options.scheme,
+                options.solver,
                 &summary,
                 identification.stop_reason,
                 &out
@@ -452,7 +454,7 @@ fn synthesize_data<S: MetriplecticSystem>(
     truth: &Model<S>,
     experiment: &Experiment,
     options: &Options,
-) -> Result<metriplectic_runtime::synthesize::SyntheticData, ReproductionError> {
+) -> Result<SyntheticData, ReproductionError> {
     let synthesis = SynthesisOptions {
         trajectories: options.train_trajectories + options.heldout_trajectories,
         held_out_trajectories: options.heldout_trajectories,
@@ -552,7 +554,7 @@ fn simulate_for_plots<S: MetriplecticSystem>(
 fn write_outputs<S: MetriplecticSystem>(
     out: &Path,
     model: &Model<S>,
-    history: &metriplectic_runtime::identify::History,
+    history: &History,
     simulations: &[Simulation],
     experiment: &Experiment,
 ) -> Result<(), ReproductionError> {
@@ -564,7 +566,7 @@ fn write_outputs<S: MetriplecticSystem>(
 fn write_model_and_history<S: MetriplecticSystem>(
     out: &Path,
     model: &Model<S>,
-    history: &metriplectic_runtime::identify::History,
+    history: &History,
 ) -> Result<(), ReproductionError> {
     let path = out.join("history.csv");
     let file = fs::File::create(&path).map_err(io_error(&path))?;
@@ -648,6 +650,7 @@ fn format_coefficient(c: f64) -> String {
 fn human_summary<S: MetriplecticSystem>(
     model: &Model<S>,
     scheme: Scheme,
+    solver: Solver,
     summary: &Summary,
     stop_reason: StopReason,
     out: &Path,
@@ -656,9 +659,10 @@ fn human_summary<S: MetriplecticSystem>(
     let mut text = String::new();
     let _ = writeln!(
         text,
-        "{} ({:?} scheme): {} iterations ({:?}), {:.1} s ({:.1} s in Clarabel), {} non-optimal solves",
+        "{} ({:?} scheme, {:?} solver): {} iterations ({:?}), {:.1} s ({:.1} s in the solver), {} non-optimal solves",
         summary.system,
         scheme,
+        solver,
         summary.iterations,
         stop_reason,
         summary.seconds_total,
@@ -681,7 +685,9 @@ fn human_summary<S: MetriplecticSystem>(
     for j in 0..S::DIM {
         let row: Vec<String> = (0..S::DIM)
             .map(|k| {
-                let pair = metriplectic_runtime::system::metric_pair_index(S::DIM, j, k);
+                let (a, b) = (j.min(k), j.max(k));
+                // Upper-triangle pairs (a ≤ b), row-major.
+                let pair = a * S::DIM - a * a.saturating_sub(1) / 2 + (b - a);
                 polynomial_to_string(
                     names,
                     S::METRIC_EXPONENTS,

@@ -700,7 +700,7 @@ pub fn emit(system: &System) -> TokenStream {
                 let features = Self::metric_monomials(x);
                 for row in 0..#n_lit {
                     for column in row..#n_lit {
-                        let pair = row * #n_lit - row * row.saturating_sub(1) / 2 + (column - row);
+                        let pair: usize = row * #n_lit - row * (row as usize).saturating_sub(1) / 2 + (column - row);
                         let theta = &coefficients[pair * #m_lit..(pair + 1) * #m_lit];
                         let value: f64 = theta.iter().zip(&features).map(|(t, f)| t * f).sum();
                         metric[row * #n_lit + column] = value;
@@ -750,7 +750,7 @@ pub fn emit(system: &System) -> TokenStream {
                 block.fill(0.0);
                 for row in 0..#n_lit {
                     for column in row..#n_lit {
-                        let pair = row * #n_lit - row * row.saturating_sub(1) / 2 + (column - row);
+                        let pair: usize = row * #n_lit - row * (row as usize).saturating_sub(1) / 2 + (column - row);
                         for (a, feature) in features.iter().enumerate() {
                             let coefficient = pair * #m_lit + a;
                             block[row * #theta_len + coefficient] += feature * gradient[column];

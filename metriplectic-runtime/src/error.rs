@@ -182,7 +182,6 @@ pub enum DatasetError {
     },
 }
 
-
 /// Malformed trajectory CSV. Lines are 1-based with the header on line 1;
 /// columns are 1-based.
 ///
@@ -352,9 +351,6 @@ pub(crate) fn quoted(names: &[String]) -> String {
         .join(", ")
 }
 
-
-
-
 /// Why an integration stopped early.
 ///
 /// ```
@@ -401,7 +397,6 @@ pub enum SimulationError {
         index: usize,
     },
 }
-
 
 /// Why a figure could not be made (feature `plot`).
 #[cfg(feature = "plot")]

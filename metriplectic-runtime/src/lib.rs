@@ -95,8 +95,8 @@ mod test_system;
 
 pub use data::{
     dataset_from_trajectories, differentiate, estimate_all, estimate_derivatives,
-    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
-    Dataset, DerivativeMethod, Trajectory,
+    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to, Dataset,
+    DerivativeMethod, Trajectory,
 };
 #[cfg(feature = "plot")]
 pub use error::PlotError;
@@ -105,8 +105,8 @@ pub use identify::{
     entropy_search, identify, identify_resume, identify_resume_with_observer,
     identify_with_observer, joint_step, metric_search, model_cost, CheckpointConfig, Cost,
     EntropySearch, History, Identification, IdentifyConfig, IterationRecord, IterationScheme,
-    JointStep, JointStepRecord, MetricSearch, SearchOptions, SearchReport, SosBasis,
-    StepOutcome, StepRecord, StopReason, TrustRegion,
+    JointStep, JointStepRecord, MetricSearch, SearchOptions, SearchReport, SosBasis, StepOutcome,
+    StepRecord, StopReason, TrustRegion,
 };
 pub use io::WriteMode;
 pub use metriplectic_macros::metriplectic;
@@ -116,8 +116,8 @@ pub use model::Model;
 pub use plot::{free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels};
 pub use simulate::{
     free_energy_diagnostics, integrate, simulate, synthesize, EnergyCheck, FreeEnergyReport,
-    InitialStates, Integration, IntegrationStats, IntegratorOptions, Noise, OutputTimes,
-    Outliers, SampleTimes, Simulation, SimulationOptions, SynthesisOptions, SyntheticData,
+    InitialStates, Integration, IntegrationStats, IntegratorOptions, Noise, Outliers, OutputTimes,
+    SampleTimes, Simulation, SimulationOptions, SynthesisOptions, SyntheticData,
 };
 #[cfg(feature = "clarabel")]
 pub use solve::L1Formulation;

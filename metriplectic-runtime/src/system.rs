@@ -1,41 +1,4 @@
 //! The compile-time description of a system: what `metriplectic!` generates.
-//!
-//! A [`MetriplecticSystem`] is a type (usually a unit struct) that carries the
-//! known parts of a generalized metriplectic system — the state, the Poisson
-//! tensor Π(x), the Hamiltonian H(x) — together with the polynomial bases in
-//! which the unknown entropy S(x) and metric K(x) are sought. Users do not
-//! implement it by hand; the `metriplectic!` macro does, after checking the
-//! system symbolically.
-//!
-//! The macro generates only what depends on the system: the tables, H, ∇H,
-//! Π, the monomials and the entropy gradient as straight-line code. Every
-//! loop that is the same for all systems (features, Jacobian, metric value,
-//! the per-sample rows of the searches) is a provided method of the trait.
-//!
-//! # Conventions
-//!
-//! * States are slices of length [`DIM`](MetriplecticSystem::DIM) in the order
-//!   of [`STATE_NAMES`](MetriplecticSystem::STATE_NAMES).
-//! * Matrices are dense, row-major slices: entry (j, k) of an n×m matrix is at
-//!   `j * m + k`.
-//! * Monomials are exponent vectors, one exponent per state variable, listed in
-//!   **graded lexicographic** order: by total degree, then, within a degree,
-//!   larger exponents of earlier variables first. For x = (q, p) at degree ≤ 2:
-//!   `1, q, p, q², q p, p²`. Every basis is a prefix of this one sequence.
-//! * Entropy: S(x) = Σₖ ψₖ φₖ(x) over [`ENTROPY_EXPONENTS`](MetriplecticSystem::ENTROPY_EXPONENTS),
-//!   all monomials of degree 1..=r. The constant monomial is left out: its
-//!   gradient is zero, so its coefficient cannot be identified from (x, ẋ).
-//! * Metric: K(x)ⱼₖ = Σₐ θⱼₖ,ₐ φₐ(x) over [`METRIC_EXPONENTS`](MetriplecticSystem::METRIC_EXPONENTS),
-//!   all monomials of degree 0..=s, with θⱼₖ = θₖⱼ. The coefficient vector θ
-//!   stores the upper-triangle pairs (j ≤ k) in row-major order, each pair a
-//!   contiguous block of `METRIC_EXPONENTS.len()` coefficients.
-//!
-//! # Panics
-//!
-//! The evaluation functions take slices whose lengths are fixed by the system
-//! (documented on each function) and panic if a length is wrong, exactly like
-//! [`slice::copy_from_slice`]. Everything in this crate that calls them checks
-//! the lengths of user data first and reports a typed error instead.
 
 /// The sum-of-squares (SOS) certificate tables of the metric basis.
 ///
@@ -67,8 +30,43 @@ pub type JacobianTerm = (u32, u32, u32, u32);
 /// A generalized metriplectic system ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)) with
 /// known Π and H and polynomial bases for the unknown S and K.
 ///
-/// Implemented by the `metriplectic!` macro; see the crate documentation for
-/// the DSL and the [module documentation](self) for the conventions.
+/// Implemented by the `metriplectic!` macro (see its documentation for the
+/// DSL). A [`MetriplecticSystem`] is a type (usually a unit struct) that carries the
+/// known parts of a generalized metriplectic system — the state, the Poisson
+/// tensor Π(x), the Hamiltonian H(x) — together with the polynomial bases in
+/// which the unknown entropy S(x) and metric K(x) are sought. Users do not
+/// implement it by hand; the `metriplectic!` macro does, after checking the
+/// system symbolically.
+///
+/// The macro generates only what depends on the system: the tables, H, ∇H,
+/// Π, the monomials and the entropy gradient as straight-line code. Every
+/// loop that is the same for all systems (features, Jacobian, metric value,
+/// the per-sample rows of the searches) is a provided method of the trait.
+///
+/// # Conventions
+///
+/// * States are slices of length [`DIM`](MetriplecticSystem::DIM) in the order
+///   of [`STATE_NAMES`](MetriplecticSystem::STATE_NAMES).
+/// * Matrices are dense, row-major slices: entry (j, k) of an n×m matrix is at
+///   `j * m + k`.
+/// * Monomials are exponent vectors, one exponent per state variable, listed in
+///   **graded lexicographic** order: by total degree, then, within a degree,
+///   larger exponents of earlier variables first. For x = (q, p) at degree ≤ 2:
+///   `1, q, p, q², q p, p²`. Every basis is a prefix of this one sequence.
+/// * Entropy: S(x) = Σₖ ψₖ φₖ(x) over [`ENTROPY_EXPONENTS`](MetriplecticSystem::ENTROPY_EXPONENTS),
+///   all monomials of degree 1..=r. The constant monomial is left out: its
+///   gradient is zero, so its coefficient cannot be identified from (x, ẋ).
+/// * Metric: K(x)ⱼₖ = Σₐ θⱼₖ,ₐ φₐ(x) over [`METRIC_EXPONENTS`](MetriplecticSystem::METRIC_EXPONENTS),
+///   all monomials of degree 0..=s, with θⱼₖ = θₖⱼ. The coefficient vector θ
+///   stores the upper-triangle pairs (j ≤ k) in row-major order, each pair a
+///   contiguous block of `METRIC_EXPONENTS.len()` coefficients.
+///
+/// # Panics
+///
+/// The evaluation functions take slices whose lengths are fixed by the system
+/// (documented on each function) and panic if a length is wrong, exactly like
+/// [`slice::copy_from_slice`]. Everything in this crate that calls them checks
+/// the lengths of user data first and reports a typed error instead.
 pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + 'static {
     /// The system's name, as declared in the macro.
     const NAME: &'static str;
@@ -184,7 +182,12 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     /// (`ENTROPY_EXPONENTS.len()`), without allocating for paper-sized systems.
     fn entropy_value(x: &[f64], coefficients: &[f64]) -> f64 {
         let p = Self::entropy_coefficient_count();
-        assert_eq!(coefficients.len(), p, "{}: entropy coefficients", Self::NAME);
+        assert_eq!(
+            coefficients.len(),
+            p,
+            "{}: entropy coefficients",
+            Self::NAME
+        );
         with_scratch(p + 1, |all| {
             Self::monomials(x, all);
             all[1..].iter().zip(coefficients).map(|(f, c)| f * c).sum()

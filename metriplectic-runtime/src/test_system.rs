@@ -113,7 +113,10 @@ mod tests {
         assert!((value - direct).abs() < 1e-14);
         let mut jacobian = [0.0; 10];
         Quadratic2d::entropy_jacobian(&x, &mut jacobian);
-        assert_eq!(jacobian, [1.0, 0.0, 0.0, 1.0, 2.0 * q, 0.0, p, q, 0.0, 2.0 * p]);
+        assert_eq!(
+            jacobian,
+            [1.0, 0.0, 0.0, 1.0, 2.0 * q, 0.0, p, q, 0.0, 2.0 * p]
+        );
         // K = [[1 + q, 2p], [2p, 3 q p]] from θ.
         let mut theta = [0.0; 18];
         theta[0] = 1.0;
@@ -138,9 +141,7 @@ mod tests {
         Quadratic2d::entropy_block(&x, &k, &mut block, &mut drift);
         let m = [k[0], 1.0 + k[1], -1.0 + k[2], k[3]];
         for row in 0..2 {
-            let field: f64 = (0..2)
-                .map(|l| m[row * 2 + l] * (x[l] + grad[l]))
-                .sum();
+            let field: f64 = (0..2).map(|l| m[row * 2 + l] * (x[l] + grad[l])).sum();
             let rows: f64 = drift[row] + (0..5).map(|c| block[row * 5 + c] * psi[c]).sum::<f64>();
             assert!((field - rows).abs() < 1e-13);
         }

@@ -1,35 +1,4 @@
 //! Trajectories as CSV files: measured or simulated states over time.
-//!
-//! # Format
-//!
-//! Comma-separated, one header line, then one row per sample:
-//!
-//! ```text
-//! trajectory,t,q,p,dq,dp
-//! run1,0,1.2,0,0.3,-1.1
-//! run1,0.05,1.21,-0.06,0.28,-1.12
-//! run2,0,-0.4,0.9,…
-//! ```
-//!
-//! * `t` — the time stamp (required). Within a trajectory, times must
-//!   strictly increase.
-//! * one column per state variable, named exactly as the system's
-//!   [`STATE_NAMES`](crate::MetriplecticSystem::STATE_NAMES) (required).
-//! * `d<name>` for each state variable — its time derivative (optional: all
-//!   of them or none). Without them, estimate derivatives with
-//!   [`estimate_derivatives`](crate::estimate_derivatives).
-//! * `trajectory` — an identifier (any non-empty text) when the file holds
-//!   several trajectories (optional; without it the file is one trajectory).
-//!   The rows of one trajectory must be contiguous.
-//!
-//! Columns may come in any order. Cells are trimmed of surrounding spaces.
-//! Numbers use Rust's `f64` syntax (`1`, `-2.5`, `1e-3`); NaN and infinities
-//! are rejected. Every error names the line (1-based, the header is line 1)
-//! and, for a cell, the column (1-based) and its header name.
-//!
-//! Writing uses the shortest text that reads back to the identical `f64`
-//! (Rust's `{}` formatting), so a write–read round trip is exact. Existing
-//! files are only replaced with [`WriteMode::Overwrite`].
 
 use std::collections::HashMap;
 use std::fs::{File, OpenOptions};
@@ -48,8 +17,38 @@ pub(crate) const TRAJECTORY_COLUMN: &str = "trajectory";
 /// Prefix of derivative columns: the derivative of `q` is `dq`.
 pub(crate) const DERIVATIVE_PREFIX: &str = "d";
 
-/// Reads the trajectories of system `S` from a CSV file (format in the
-/// [module documentation](self)).
+/// Reads the trajectories of system `S` from a CSV file.
+///
+/// # Format
+///
+/// Comma-separated, one header line, then one row per sample:
+///
+/// ```text
+/// trajectory,t,q,p,dq,dp
+/// run1,0,1.2,0,0.3,-1.1
+/// run1,0.05,1.21,-0.06,0.28,-1.12
+/// run2,0,-0.4,0.9,…
+/// ```
+///
+/// * `t` — the time stamp (required). Within a trajectory, times must
+///   strictly increase.
+/// * one column per state variable, named exactly as the system's
+///   [`STATE_NAMES`](crate::MetriplecticSystem::STATE_NAMES) (required).
+/// * `d<name>` for each state variable — its time derivative (optional: all
+///   of them or none). Without them, estimate derivatives with
+///   [`estimate_derivatives`](crate::estimate_derivatives).
+/// * `trajectory` — an identifier (any non-empty text) when the file holds
+///   several trajectories (optional; without it the file is one trajectory).
+///   The rows of one trajectory must be contiguous.
+///
+/// Columns may come in any order. Cells are trimmed of surrounding spaces.
+/// Numbers use Rust's `f64` syntax (`1`, `-2.5`, `1e-3`); NaN and infinities
+/// are rejected. Every error names the line (1-based, the header is line 1)
+/// and, for a cell, the column (1-based) and its header name.
+///
+/// Writing uses the shortest text that reads back to the identical `f64`
+/// (Rust's `{}` formatting), so a write–read round trip is exact. Existing
+/// files are only replaced with [`WriteMode::Overwrite`](crate::WriteMode::Overwrite).
 pub fn read_trajectories<S: MetriplecticSystem>(path: impl AsRef<Path>) -> Result<Vec<Trajectory>> {
     let path = path.as_ref();
     let file = File::open(path).map_err(|source| Error::Io {
@@ -177,7 +176,7 @@ pub fn read_trajectories_from(reader: impl Read, names: &[&str]) -> Result<Vec<T
 }
 
 /// Writes trajectories to a CSV file; refuses to replace an existing file
-/// unless `mode` is [`WriteMode::Overwrite`].
+/// unless `mode` is [`WriteMode::Overwrite`](crate::WriteMode::Overwrite).
 ///
 /// All trajectories must have the same state names and either all or none
 /// must carry derivatives. A `trajectory` column is written when there is

@@ -25,8 +25,8 @@
 
 use nalgebra::DMatrix;
 
-use crate::error::{invalid, Error, Result};
 use super::Trajectory;
+use crate::error::{invalid, Error, Result};
 
 /// How to estimate ẋ from sampled states.
 ///

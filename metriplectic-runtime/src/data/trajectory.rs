@@ -214,8 +214,7 @@ impl Trajectory {
         let derivatives = self.derivatives.clone().ok_or_else(|| {
             invalid(
                 "trajectory",
-                "it has no derivatives; estimate them with `estimate_derivatives` first"
-                    .to_owned(),
+                "it has no derivatives; estimate them with `estimate_derivatives` first".to_owned(),
             )
         })?;
         Ok(Dataset::from_flat(

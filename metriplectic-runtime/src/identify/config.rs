@@ -8,8 +8,8 @@ use super::search::SearchOptions;
 use crate::error::{check_finite, check_len, invalid, Result};
 use crate::system::MetriplecticSystem;
 
-/// Configuration of [`identify`]. Build with struct-update syntax from
-/// [`Default`]; [`identify`] validates it.
+/// Configuration of [`identify`](crate::identify). Build with struct-update syntax from
+/// [`Default`]; [`identify`](crate::identify) validates it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct IdentifyConfig {
@@ -36,11 +36,11 @@ pub struct IdentifyConfig {
     /// Which steps each iteration takes (default: the paper's alternation).
     pub scheme: IterationScheme,
     /// Periodic checkpoints of the run's full state, from which
-    /// [`identify_resume`] continues it (`None`: no checkpoints).
+    /// [`identify_resume`](crate::identify_resume) continues it (`None`: no checkpoints).
     pub checkpoint: Option<CheckpointConfig>,
 }
 
-/// The steps of one iteration of [`identify`].
+/// The steps of one iteration of [`identify`](crate::identify).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum IterationScheme {
@@ -202,10 +202,7 @@ impl TrustRegion {
             ));
         }
         if !(self.shrink > 0.0 && self.shrink < 1.0) {
-            return Err(bad(
-                "shrink",
-                format!("{} is not in (0, 1)", self.shrink),
-            ));
+            return Err(bad("shrink", format!("{} is not in (0, 1)", self.shrink)));
         }
         if !(self.poor_ratio >= 0.0 && self.poor_ratio <= self.good_ratio && self.good_ratio <= 1.0)
         {
@@ -231,4 +228,3 @@ impl TrustRegion {
         next.clamp(self.min_radius, self.max_radius)
     }
 }
-

@@ -1,48 +1,11 @@
 //! Bilevel identification: the paper's Algorithm 1 (full batch) and
 //! Algorithm 2 (a fresh random minibatch every iteration).
-//!
-//! Each iteration runs the metric search with the entropy fixed, then the
-//! entropy search with the metric fixed, on the same batch. A step replaces
-//! the current model only if its solve ended usable ([`SolveStatus::is_usable`](crate::SolveStatus::is_usable)),
-//! its coefficients are finite, and its cost **on the same batch**, recomputed
-//! from the coefficients, is not larger than the current model's. That is the
-//! hypothesis of the paper's Theorem 1, so with the full batch the cost is
-//! non-increasing by construction; every rejected step is recorded in the
-//! [`History`].
-//!
-//! # Iteration schemes
-//!
-//! [`IterationScheme::Alternating`] (the default) is the paper's algorithm:
-//! metric search, then entropy search. [`IterationScheme::AlternatingThenJoint`]
-//! adds, on the same batch, a joint linearised step in both blocks inside an
-//! adaptive trust region ([`joint_step`]), accepted under the same
-//! rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
-//! optimal, the pair not jointly stationary); the joint step removes that.
-//!
-//! # Stopping
-//!
-//! * the per-component cost on the iteration's batch reaches
-//!   [`IdentifyConfig::tolerance`] ([`StopReason::Converged`]);
-//! * [`IdentifyConfig::max_iterations`] iterations ran ([`StopReason::MaxIterations`]);
-//! * the observer returned [`ControlFlow::Break`] ([`StopReason::Interrupted`]);
-//! * [`IdentifyConfig::max_failed_iterations`] consecutive iterations in which
-//!   *both* solves failed (not merely failed to improve): if some step had been
-//!   accepted before, the best model so far is returned with
-//!   [`StopReason::SolverFailures`]; if none ever was, no progress was possible
-//!   and the result is [`Error::IdentificationFailed`].
-//!
-//! # Checkpoints
-//!
-//! With [`IdentifyConfig::checkpoint`] set, the run's full state is saved
-//! atomically every few iterations and when it stops; [`identify_resume`]
-//! continues it, with the same history an uninterrupted run would have had.
 
 use std::ops::ControlFlow;
 use std::path::Path;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-
 
 use super::checkpoint;
 use super::config::{IdentifyConfig, IterationScheme};
@@ -70,6 +33,42 @@ pub struct Identification<S: MetriplecticSystem> {
 }
 
 /// Runs Algorithm 1 or 2 (per [`IdentifyConfig::batch_size`]) on `data`.
+///
+/// Each iteration runs the metric search with the entropy fixed, then the
+/// entropy search with the metric fixed, on the same batch. A step replaces
+/// the current model only if its solve ended usable ([`SolveStatus::is_usable`](crate::SolveStatus::is_usable)),
+/// its coefficients are finite, and its cost **on the same batch**, recomputed
+/// from the coefficients, is not larger than the current model's. That is the
+/// hypothesis of the paper's Theorem 1, so with the full batch the cost is
+/// non-increasing by construction; every rejected step is recorded in the
+/// [`History`].
+///
+/// # Iteration schemes
+///
+/// [`IterationScheme::Alternating`] (the default) is the paper's algorithm:
+/// metric search, then entropy search. [`IterationScheme::AlternatingThenJoint`]
+/// adds, on the same batch, a joint linearised step in both blocks inside an
+/// adaptive trust region ([`joint_step`]), accepted under the same
+/// rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
+/// optimal, the pair not jointly stationary); the joint step removes that.
+///
+/// # Stopping
+///
+/// * the per-component cost on the iteration's batch reaches
+///   [`IdentifyConfig::tolerance`] ([`StopReason::Converged`]);
+/// * [`IdentifyConfig::max_iterations`] iterations ran ([`StopReason::MaxIterations`]);
+/// * the observer returned [`ControlFlow::Break`] ([`StopReason::Interrupted`]);
+/// * [`IdentifyConfig::max_failed_iterations`] consecutive iterations in which
+///   *both* solves failed (not merely failed to improve): if some step had been
+///   accepted before, the best model so far is returned with
+///   [`StopReason::SolverFailures`]; if none ever was, no progress was possible
+///   and the result is [`Error::IdentificationFailed`].
+///
+/// # Checkpoints
+///
+/// With [`IdentifyConfig::checkpoint`] set, the run's full state is saved
+/// atomically every few iterations and when it stops; [`identify_resume`]
+/// continues it, with the same history an uninterrupted run would have had.
 pub fn identify<S: MetriplecticSystem>(
     data: &Dataset,
     config: &IdentifyConfig,
@@ -322,8 +321,8 @@ fn decide<S: MetriplecticSystem>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{SearchOptions, SolveStatus, SolverSettings};
     use crate::test_system::{reference_data, Quadratic2d};
+    use crate::{SearchOptions, SolveStatus, SolverSettings};
 
     fn assert_non_increasing(history: &History) {
         let mut previous = f64::INFINITY;
@@ -498,9 +497,9 @@ mod tests {
             IdentifyConfig {
                 search: SearchOptions {
                     solver: SolverSettings {
-                    max_iter: 0,
-                    ..SolverSettings::default()
-                },
+                        max_iter: 0,
+                        ..SolverSettings::default()
+                    },
                     ..SearchOptions::default()
                 },
                 ..IdentifyConfig::default()
@@ -534,9 +533,9 @@ mod tests {
         let config = IdentifyConfig {
             search: SearchOptions {
                 solver: SolverSettings {
-                max_iter: 1,
-                ..SolverSettings::default()
-            },
+                    max_iter: 1,
+                    ..SolverSettings::default()
+                },
                 ..SearchOptions::default()
             },
             max_failed_iterations: 2,
@@ -576,9 +575,9 @@ mod tests {
         let config = IdentifyConfig {
             search: SearchOptions {
                 solver: SolverSettings {
-                max_iter: 1,
-                ..SolverSettings::default()
-            },
+                    max_iter: 1,
+                    ..SolverSettings::default()
+                },
                 ..SearchOptions::default()
             },
             max_failed_iterations: 2,
@@ -597,8 +596,11 @@ mod tests {
             matches!(err, Error::IdentificationFailed { iterations: 2, .. }),
             "{err}"
         );
-        let start =
-            Model::<Quadratic2d>::new(vec![0.0; 5], crate::model::identity_metric::<Quadratic2d>(1.0)).unwrap();
+        let start = Model::<Quadratic2d>::new(
+            vec![0.0; 5],
+            crate::model::identity_metric::<Quadratic2d>(1.0),
+        )
+        .unwrap();
         assert!(models.iter().all(|m| *m == start));
     }
 }

@@ -60,7 +60,7 @@ impl IterationRecord {
     }
 }
 
-/// The joint step of one iteration ([`IterationScheme::AlternatingThenJoint`]).
+/// The joint step of one iteration ([`IterationScheme::AlternatingThenJoint`](crate::IterationScheme::AlternatingThenJoint)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JointStepRecord {
     /// Solve report and outcome, as for the other steps.
@@ -187,7 +187,6 @@ impl History {
     }
 }
 
-
 /// Why [`identify`](crate::identify) stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum StopReason {
@@ -201,4 +200,3 @@ pub enum StopReason {
     /// reached before is returned.
     SolverFailures,
 }
-

@@ -22,5 +22,3 @@ pub use search::{
     entropy_search, joint_step, metric_search, EntropySearch, JointStep, MetricSearch,
     SearchOptions, SearchReport, SosBasis,
 };
-
-

@@ -25,4 +25,3 @@ pub(crate) struct RunState<S: MetriplecticSystem> {
     /// Why the run stopped, if it did.
     pub(crate) stopped: Option<StopReason>,
 }
-

@@ -11,9 +11,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::Model;
 use crate::error::{Error, Result};
 use crate::io::read_capped;
-use super::Model;
 use crate::system::MetriplecticSystem;
 
 /// Format tag written into every model file.
@@ -202,8 +202,8 @@ impl<S: MetriplecticSystem> Model<S> {
 
 #[cfg(test)]
 mod tests {
-    use crate::error::Error;
     use super::Model;
+    use crate::error::Error;
     use crate::test_system::Quadratic2d;
 
     #[test]

@@ -7,11 +7,11 @@
 //! the fraction of steps where it does is a check of the identification that
 //! needs no derivatives.
 
+use super::dopri::IntegratorOptions;
+use crate::data::Trajectory;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
-use crate::data::Trajectory;
-use super::dopri::IntegratorOptions;
 
 /// How often E decreased along a set of trajectories.
 ///
@@ -182,4 +182,3 @@ pub(super) fn check_energy(
 pub(super) fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
-

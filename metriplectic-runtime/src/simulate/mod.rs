@@ -1,28 +1,13 @@
-//! Simulation: integrate ẋ = (Π + K)(∇H + ∇S) for a [`Model`] ([`dopri`]),
-//! check that the free energy never decreases along the way ([`energy`]),
-//! and synthesise identification data from a known model ([`synthesize`]).
+//! Simulation: integrate ẋ = (Π + K)(∇H + ∇S) for a [`Model`] (`dopri`),
+//! check that the free energy never decreases along the way (`energy`),
+//! and synthesise identification data from a known model (`synthesize`).
 //!
-//! Along every simulated trajectory of a model with K ⪰ 0 the free energy
-//! E = H + S must not decrease (dE/dt = ∇Eᵀ K ∇E ≥ 0). [`simulate`] reports
-//! E at each output and an [`EnergyCheck`]: between consecutive outputs k and
-//! k+1, a decrease counts as a violation only if it exceeds
-//!
-//! ```text
-//! τₖ = factor · (atol·√n + rtol·max(‖xₖ‖, ‖xₖ₊₁‖)) · max(‖∇E(xₖ)‖, ‖∇E(xₖ₊₁)‖),
-//! ```
-//!
-//! the first-order change of E caused by a state error of the size the
-//! integrator controls (each component's local error is kept below
-//! atol + rtol·|xᵢ|), plus the worst-case rounding error of evaluating E in
-//! floating point at both ends, (p + r)·ε·(|H(x)| + Σₖ|ψₖ φₖ(x)|) with p
-//! entropy terms of degree ≤ r (near the zero set ∇E → 0 and only rounding
-//! is left). `factor` is [`SimulationOptions::energy_tolerance_factor`].
 
 mod dopri;
 mod energy;
 mod synthesize;
 
-pub use dopri::{integrate, IntegrationStats, IntegratorOptions, Integration, OutputTimes};
+pub use dopri::{integrate, Integration, IntegrationStats, IntegratorOptions, OutputTimes};
 pub use energy::{free_energy_diagnostics, EnergyCheck, FreeEnergyReport};
 pub use synthesize::{
     synthesize, InitialStates, Noise, Outliers, SampleTimes, SynthesisOptions, SyntheticData,
@@ -50,7 +35,7 @@ pub struct SimulationOptions {
     /// Output times.
     pub output: OutputTimes,
     /// Safety factor of the free-energy monotonicity tolerance (see the
-    /// [module documentation](self)); must be ≥ 0.
+    /// [`simulate`] documentation); must be ≥ 0.
     pub energy_tolerance_factor: f64,
 }
 
@@ -99,6 +84,24 @@ pub struct Simulation {
 ///
 /// The trajectory carries the model's exact vector field at every output
 /// state as its derivatives, and its state names are `S::STATE_NAMES`.
+///
+/// # Free-energy check
+///
+/// Along every simulated trajectory of a model with K ⪰ 0 the free energy
+/// E = H + S must not decrease (dE/dt = ∇Eᵀ K ∇E ≥ 0). [`simulate`] reports
+/// E at each output and an [`EnergyCheck`]: between consecutive outputs k and
+/// k+1, a decrease counts as a violation only if it exceeds
+///
+/// ```text
+/// τₖ = factor · (atol·√n + rtol·max(‖xₖ‖, ‖xₖ₊₁‖)) · max(‖∇E(xₖ)‖, ‖∇E(xₖ₊₁)‖),
+/// ```
+///
+/// the first-order change of E caused by a state error of the size the
+/// integrator controls (each component's local error is kept below
+/// atol + rtol·|xᵢ|), plus the worst-case rounding error of evaluating E in
+/// floating point at both ends, (p + r)·ε·(|H(x)| + Σₖ|ψₖ φₖ(x)|) with p
+/// entropy terms of degree ≤ r (near the zero set ∇E → 0 and only rounding
+/// is left). `factor` is [`SimulationOptions::energy_tolerance_factor`].
 pub fn simulate<S: MetriplecticSystem>(
     model: &Model<S>,
     x0: &[f64],

@@ -1,37 +1,14 @@
 //! Synthetic identification data from a known model, reproducible by seed.
-//!
-//! [`synthesize`] draws initial states, simulates the model from each, samples
-//! every trajectory at chosen times and records (x, ẋ) with ẋ the model's
-//! **exact** vector field at the (noise-free) sampled state. Optionally it
-//! adds measurement noise and gross outliers, and holds whole trajectories out
-//! for validation.
-//!
-//! # Randomness
-//!
-//! All draws come from ChaCha8 seeded with [`SynthesisOptions::seed`], one
-//! independent stream per purpose: stream 0 draws the initial states and the
-//! sample times, stream 1 the noise, stream 2 the outliers. The same seed and
-//! options give bit-identical data, and changing only the noise or outlier
-//! settings keeps the same trajectories.
-//!
-//! # Held-out split
-//!
-//! The last [`held_out_trajectories`](SynthesisOptions::held_out_trajectories)
-//! trajectories are held out whole. Splitting by trajectory rather than by
-//! sample keeps held-out states from being time-neighbours of training states
-//! on the same trajectory, so the held-out error measures generalisation to
-//! new initial conditions. (All trajectories are i.i.d., so taking the last
-//! ones is a random split.)
 
 use rand::seq::index;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
+use super::{simulate, IntegratorOptions, OutputTimes, SimulationOptions};
 use crate::data::{dataset_from_trajectories, Dataset, Trajectory};
 use crate::error::{invalid, Result};
 use crate::model::Model;
-use super::{simulate, IntegratorOptions, OutputTimes, SimulationOptions};
 use crate::system::MetriplecticSystem;
 
 /// Distribution of the initial states.
@@ -284,8 +261,30 @@ pub struct SyntheticData {
     pub outlier_samples: Vec<usize>,
 }
 
-/// Synthesises a dataset from `model` as described by `options` (see the
-/// [module documentation](self)).
+/// Synthesises a dataset from `model` as described by `options`.
+///
+/// It draws initial states, simulates the model from each, samples
+/// every trajectory at chosen times and records (x, ẋ) with ẋ the model's
+/// **exact** vector field at the (noise-free) sampled state. Optionally it
+/// adds measurement noise and gross outliers, and holds whole trajectories out
+/// for validation.
+///
+/// # Randomness
+///
+/// All draws come from ChaCha8 seeded with [`SynthesisOptions::seed`], one
+/// independent stream per purpose: stream 0 draws the initial states and the
+/// sample times, stream 1 the noise, stream 2 the outliers. The same seed and
+/// options give bit-identical data, and changing only the noise or outlier
+/// settings keeps the same trajectories.
+///
+/// # Held-out split
+///
+/// The last [`held_out_trajectories`](SynthesisOptions::held_out_trajectories)
+/// trajectories are held out whole. Splitting by trajectory rather than by
+/// sample keeps held-out states from being time-neighbours of training states
+/// on the same trajectory, so the held-out error measures generalisation to
+/// new initial conditions. (All trajectories are i.i.d., so taking the last
+/// ones is a random split.)
 pub fn synthesize<S: MetriplecticSystem>(
     model: &Model<S>,
     options: &SynthesisOptions,

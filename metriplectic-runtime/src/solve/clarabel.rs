@@ -303,7 +303,6 @@ fn push_group_column(column: &[(usize, f64)], rowval: &mut Vec<usize>, nzval: &m
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

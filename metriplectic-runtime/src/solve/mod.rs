@@ -106,8 +106,7 @@ pub(crate) mod tests {
     #[test]
     fn l1_regression_returns_the_median() {
         // min Σ|tᵢ − c| is the median; an outlier does not move it.
-        let regression =
-            Regression::new(1, vec![1.0; 5], vec![1.0, 2.0, 3.0, 100.0, 4.0]).unwrap();
+        let regression = Regression::new(1, vec![1.0; 5], vec![1.0, 2.0, 3.0, 100.0, 4.0]).unwrap();
         for backend in backends() {
             let out = solve_l1(
                 &L1Problem::new(regression.clone(), 0),

@@ -1,15 +1,5 @@
 //! Entropy search (the paper's Problem 3): the L1 linear program in ψ with
 //! the metric K fixed.
-//!
-//! With M = Π(x) + K(x) the residual of sample i is
-//! rᵢ(ψ) = ẋᵢ − M ∇H(xᵢ) − M J(xᵢ)ᵀ ψ, linear in ψ; the program is
-//!
-//! ```text
-//! min Σᵢ ‖rᵢ(ψ)‖₁   s.t.  −η ≤ ψ ≤ η,
-//! ```
-//!
-//! assembled from the system's per-sample
-//! [`entropy_block`](MetriplecticSystem::entropy_block).
 
 use super::{SearchOptions, SearchReport};
 use crate::data::Dataset;
@@ -36,6 +26,16 @@ pub struct EntropySearch {
 /// Errors on invalid input (dimension, lengths, non-finite θ, η ≤ 0).
 /// Solver trouble (infeasible, iteration limit, numerical error) is *not*
 /// an error: it is reported in [`SearchReport::status`].
+///
+/// With M = Π(x) + K(x) the residual of sample i is
+/// rᵢ(ψ) = ẋᵢ − M ∇H(xᵢ) − M J(xᵢ)ᵀ ψ, linear in ψ; the program is
+///
+/// ```text
+/// min Σᵢ ‖rᵢ(ψ)‖₁   s.t.  −η ≤ ψ ≤ η,
+/// ```
+///
+/// assembled from the system's per-sample
+/// [`entropy_block`](MetriplecticSystem::entropy_block).
 pub fn entropy_search<S: MetriplecticSystem>(
     data: &Dataset,
     metric: &[f64],

@@ -1,51 +1,7 @@
 //! A joint, linearised step in both coefficient blocks (ψ, θ) at once: a
 //! Gauss–Newton step for the L1 cost, in a trust region.
-//!
-//! The alternating searches minimise the bilinear cost exactly in one block
-//! at a time. On the nonsmooth L1 cost such block-coordinate descent can
-//! crawl along valleys that are not aligned with either block (each block
-//! is optimal, the pair is not jointly stationary). This step moves both
-//! blocks together. At the current (ψ, θ), with g = ∇H + ∇S(ψ),
-//! M = Π + K(θ) and J the Jacobian of the entropy features, the residual of
-//! sample i at (ψ + d, θ′) is
-//!
-//! ```text
-//! rᵢ = ẋᵢ − Πᵢ gᵢ − K(xᵢ; θ′) gᵢ − Mᵢ Jᵢᵀ d  −  (K(xᵢ; θ′) − K(xᵢ; θ)) Jᵢᵀ d,
-//! ```
-//!
-//! linear in (θ′, d) but for the last, bilinear, term. Dropping it leaves
-//! one convex program, solved exactly like the metric search (same L1
-//! objective, same SOS cones on θ′) with the entropy columns
-//! [`entropy_block`](crate::MetriplecticSystem::entropy_block) added
-//! beside the [`metric_block`](crate::MetriplecticSystem::metric_block)
-//! columns, plus the trust region |d|∞ ≤ Δ, |θ′ − θ|∞ ≤ Δ and the box
-//! |ψ + d| ≤ η. The current point is feasible, so the linearised cost never
-//! exceeds the current cost; the true cost of the candidate is recomputed
-//! and the caller accepts it only if it did not increase (Theorem 1).
-//! For a zero-residual problem such steps converge fast near the solution,
-//! where the dropped term is second order.
-//!
-//! # Flat directions and the step penalty
-//!
-//! The bilinear cost can have exact symmetries. On the SO(3) rigid body
-//! (Π∇E = 0) the residual ẋ − (Π + K)∇E is unchanged by (K, E) ↦ (cK, E/c),
-//! so the linearised program is flat along (δK ∝ K, δE ∝ −E): measured on
-//! the paper's run, the smallest singular value of its free columns was
-//! 1.5·10⁻⁷ against 0.36 for the next. Only the far-away trust-region rows
-//! bound that direction, so near the exact fit the interior-point Newton
-//! system becomes numerically singular (Clarabel's LDLᵀ needed dynamic
-//! regularisation, the solve went non-finite, and the run ended
-//! `AlmostSolved`), and the step could wander along the symmetry, where
-//! the dropped bilinear term makes the true cost worse than predicted.
-//! Every joint step therefore adds a small L1 proximal term
-//! Σₖ λₖ |Δₖ| on the coefficient changes (extra regression rows with zero
-//! target), with λₖ = `STEP_PENALTY` · Σᵢ |Aᵢₖ| relative to the rate at
-//! which the data term can change along coefficient k. Polyhedral penalties
-//! are exact: directions along which the data term rises faster than the
-//! penalty keep their unpenalised optimum, while (nearly) flat directions
-//! get the shortest step. The predicted cost excludes the penalty.
 
-use super::sos::{add_sos_constraints, check_tables, SosConstraints, theta_from_gram};
+use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
 use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
 use crate::data::Dataset;
 use crate::error::{invalid, Result};
@@ -79,6 +35,50 @@ pub struct JointStep {
 /// `radius` (every coefficient moves by at most `radius`).
 ///
 /// Errors on invalid input; solver trouble is reported in the status.
+///
+/// The alternating searches minimise the bilinear cost exactly in one block
+/// at a time. On the nonsmooth L1 cost such block-coordinate descent can
+/// crawl along valleys that are not aligned with either block (each block
+/// is optimal, the pair is not jointly stationary). This step moves both
+/// blocks together. At the current (ψ, θ), with g = ∇H + ∇S(ψ),
+/// M = Π + K(θ) and J the Jacobian of the entropy features, the residual of
+/// sample i at (ψ + d, θ′) is
+///
+/// ```text
+/// rᵢ = ẋᵢ − Πᵢ gᵢ − K(xᵢ; θ′) gᵢ − Mᵢ Jᵢᵀ d  −  (K(xᵢ; θ′) − K(xᵢ; θ)) Jᵢᵀ d,
+/// ```
+///
+/// linear in (θ′, d) but for the last, bilinear, term. Dropping it leaves
+/// one convex program, solved exactly like the metric search (same L1
+/// objective, same SOS cones on θ′) with the entropy columns
+/// [`entropy_block`](crate::MetriplecticSystem::entropy_block) added
+/// beside the [`metric_block`](crate::MetriplecticSystem::metric_block)
+/// columns, plus the trust region |d|∞ ≤ Δ, |θ′ − θ|∞ ≤ Δ and the box
+/// |ψ + d| ≤ η. The current point is feasible, so the linearised cost never
+/// exceeds the current cost; the true cost of the candidate is recomputed
+/// and the caller accepts it only if it did not increase (Theorem 1).
+/// For a zero-residual problem such steps converge fast near the solution,
+/// where the dropped term is second order.
+///
+/// # Flat directions and the step penalty
+///
+/// The bilinear cost can have exact symmetries. On the SO(3) rigid body
+/// (Π∇E = 0) the residual ẋ − (Π + K)∇E is unchanged by (K, E) ↦ (cK, E/c),
+/// so the linearised program is flat along (δK ∝ K, δE ∝ −E): measured on
+/// the paper's run, the smallest singular value of its free columns was
+/// 1.5·10⁻⁷ against 0.36 for the next. Only the far-away trust-region rows
+/// bound that direction, so near the exact fit the interior-point Newton
+/// system becomes numerically singular (Clarabel's LDLᵀ needed dynamic
+/// regularisation, the solve went non-finite, and the run ended
+/// `AlmostSolved`), and the step could wander along the symmetry, where
+/// the dropped bilinear term makes the true cost worse than predicted.
+/// Every joint step therefore adds a small L1 proximal term
+/// Σₖ λₖ |Δₖ| on the coefficient changes (extra regression rows with zero
+/// target), with λₖ = `STEP_PENALTY` · Σᵢ |Aᵢₖ| relative to the rate at
+/// which the data term can change along coefficient k. Polyhedral penalties
+/// are exact: directions along which the data term rises faster than the
+/// penalty keep their unpenalised optimum, while (nearly) flat directions
+/// get the shortest step. The predicted cost excludes the penalty.
 pub fn joint_step<S: MetriplecticSystem>(
     data: &Dataset,
     model: &Model<S>,

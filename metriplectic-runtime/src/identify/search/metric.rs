@@ -1,15 +1,6 @@
 //! Metric search (the paper's Problem 2): the L1 fit of the metric
 //! coefficients θ with the entropy fixed, under sum-of-squares constraints
 //! that make 0 ⪯ K(x) ⪯ ηI hold for every x (see [`super::sos`]).
-//!
-//! With g = ∇H + ∇S the residual ẋ − Π g − K(x; θ) g is linear in θ. By
-//! default the facially reduced tables [`MetriplecticSystem::SOS_REDUCED`]
-//! are used: the full tables describe a program without a strictly feasible
-//! point, which interior-point solvers handle badly.
-//!
-//! The returned θ is recomputed from the solver's Q₁ (taken from the cone
-//! slack, which lies in the PSD cone), so K(x) = Z(x)ᵀ Q₁ Z(x) holds exactly
-//! and K(x) ⪰ 0 up to rounding whatever the solver's feasibility tolerance.
 
 use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
 use super::{SearchOptions, SearchReport};
@@ -44,6 +35,15 @@ pub struct MetricSearch {
 ///
 /// Errors on invalid input; solver trouble is reported in
 /// [`SearchReport::status`], not as an error.
+///
+/// With g = ∇H + ∇S the residual ẋ − Π g − K(x; θ) g is linear in θ. By
+/// default the facially reduced tables [`MetriplecticSystem::SOS_REDUCED`]
+/// are used: the full tables describe a program without a strictly feasible
+/// point, which interior-point solvers handle badly.
+///
+/// The returned θ is recomputed from the solver's Q₁ (taken from the cone
+/// slack, which lies in the PSD cone), so K(x) = Z(x)ᵀ Q₁ Z(x) holds exactly
+/// and K(x) ⪰ 0 up to rounding whatever the solver's feasibility tolerance.
 pub fn metric_search<S: MetriplecticSystem>(
     data: &Dataset,
     entropy: &[f64],

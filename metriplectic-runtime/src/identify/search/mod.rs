@@ -142,8 +142,9 @@ mod tests {
         let dense = SolverBackend::Dense;
 
         let entropy_cost = |backend| {
-            let fit = entropy_search::<Quadratic2d>(&data, &metric, &options(backend, SosBasis::Reduced))
-                .unwrap();
+            let fit =
+                entropy_search::<Quadratic2d>(&data, &metric, &options(backend, SosBasis::Reduced))
+                    .unwrap();
             assert_eq!(fit.report.status, SolveStatus::Solved, "{backend:?}");
             fit.report.cost.unwrap().sum
         };
@@ -151,7 +152,10 @@ mod tests {
         assert!(reference > 1e-2);
         for backend in backends() {
             let cost = entropy_cost(backend);
-            assert!(close(cost, reference), "entropy search {backend:?}: {cost} vs {reference}");
+            assert!(
+                close(cost, reference),
+                "entropy search {backend:?}: {cost} vs {reference}"
+            );
         }
 
         for sos in [SosBasis::Reduced, SosBasis::Full] {
@@ -220,7 +224,10 @@ mod tests {
         let reference = predicted(dense);
         for backend in backends() {
             let value = predicted(backend);
-            assert!(close(value, reference), "joint step prediction {backend:?}: {value} vs {reference}");
+            assert!(
+                close(value, reference),
+                "joint step prediction {backend:?}: {value} vs {reference}"
+            );
         }
     }
 

@@ -208,7 +208,11 @@ pub(super) fn jordan_product(
 }
 
 /// ξ with λ ∘ ξ = v, for λ diagonal on PSD segments.
-pub(super) fn jordan_divide(segments: &[Segment], lambda: &[f64], v: &DVector<f64>) -> DVector<f64> {
+pub(super) fn jordan_divide(
+    segments: &[Segment],
+    lambda: &[f64],
+    v: &DVector<f64>,
+) -> DVector<f64> {
     let mut out = DVector::from_iterator(v.len(), v.iter().zip(lambda).map(|(v, l)| v / l));
     for segment in segments {
         if let Some(n) = segment.psd {

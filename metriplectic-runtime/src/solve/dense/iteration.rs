@@ -8,8 +8,8 @@ use std::time::Instant;
 use nalgebra::DVector;
 
 use super::cones::{
-    cone_identity, jordan_divide, jordan_product, shift_into_cones, shift_orthant,
-    side_step_limit, SideScaling,
+    cone_identity, jordan_divide, jordan_product, shift_into_cones, shift_orthant, side_step_limit,
+    SideScaling,
 };
 use super::newton::{Kkt, Newton};
 use super::Reduced;
@@ -345,8 +345,7 @@ impl<'a> Step<'a> {
             s2: (-self.lambda2.component_mul(&self.lambda2)
                 - affine.s2_scaled.component_mul(&affine.z2_scaled))
             .add_scalar(target),
-            sc: -&lambda_sq_c
-                - jordan_product(segments, &affine.sc_scaled, &affine.zc_scaled)
+            sc: -&lambda_sq_c - jordan_product(segments, &affine.sc_scaled, &affine.zc_scaled)
                 + cone_identity(segments, m) * target,
         }
     }
@@ -414,10 +413,7 @@ impl<'a> Step<'a> {
         x.e += &d.e * alpha;
         x.s1 += self.w1.component_mul(&d.s1_scaled) * alpha;
         x.s2 += self.w2.component_mul(&d.s2_scaled) * alpha;
-        x.sc += self
-            .scaling
-            .apply_wt(&self.problem.segments, &d.sc_scaled)
-            * alpha;
+        x.sc += self.scaling.apply_wt(&self.problem.segments, &d.sc_scaled) * alpha;
         x.z1 += &d.z1 * alpha;
         x.z2 += &d.z2 * alpha;
         x.zc += &d.zc * alpha;

@@ -224,7 +224,11 @@ pub(crate) mod tests {
             entries.push((width + k, k, -1.0));
         }
         problem
-            .constrain(Cone::Nonnegative(2 * width), entries, vec![bound; 2 * width])
+            .constrain(
+                Cone::Nonnegative(2 * width),
+                entries,
+                vec![bound; 2 * width],
+            )
             .unwrap();
         problem
     }
@@ -234,7 +238,11 @@ pub(crate) mod tests {
         // c₀ = 1 and c₀ = 2.
         let mut problem = L1Problem::new(random_regression(5, 1, 3), 0);
         problem
-            .constrain(Cone::Zero(2), vec![(0, 0, 1.0), (1, 0, 1.0)], vec![1.0, 2.0])
+            .constrain(
+                Cone::Zero(2),
+                vec![(0, 0, 1.0), (1, 0, 1.0)],
+                vec![1.0, 2.0],
+            )
             .unwrap();
         let out = solve(&problem, &SolverSettings::default()).unwrap();
         assert_eq!(out.status, SolveStatus::PrimalInfeasible);
@@ -318,8 +326,14 @@ pub(crate) mod tests {
         let problem = box_problem(random_regression(200, 7, 7), 0.05);
         let out = solve(&problem, &SolverSettings::default()).unwrap();
         assert_eq!(out.status, SolveStatus::Solved);
-        assert!(out.coefficients().iter().all(|v| v.abs() <= 0.05 * (1.0 + 1e-8)));
+        assert!(out
+            .coefficients()
+            .iter()
+            .all(|v| v.abs() <= 0.05 * (1.0 + 1e-8)));
         // The box slacks are η ∓ c.
-        assert!(out.slack(crate::solve::ConstraintId(0)).iter().all(|&s| s >= 0.0));
+        assert!(out
+            .slack(crate::solve::ConstraintId(0))
+            .iter()
+            .all(|&s| s >= 0.0));
     }
 }

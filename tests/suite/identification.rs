@@ -1,15 +1,13 @@
 //! Bilevel identification (Algorithms 1 and 2) on the paper systems, and the
 //! model file round trip.
 
-mod common;
-
-use common::paper_systems::*;
+use crate::common::*;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::synthesize::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
 use metriplectic_runtime::{
     identify, identify_with_observer, History, IdentifyConfig, IterationScheme, StepOutcome,
     TrustRegion,
 };
+use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
 use std::ops::ControlFlow;
 
 fn assert_non_increasing(history: &History) {

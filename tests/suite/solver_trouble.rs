@@ -2,15 +2,13 @@
 //! records every outcome, and stops with a typed error only when no step
 //! could ever be taken.
 
-mod common;
-
 use std::ops::ControlFlow;
 
-use common::paper_systems::*;
+use crate::common::*;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identify, identify_with_observer, model_cost, History, IdentifyConfig, SolveStatus,
-    SolverSettings, StepOutcome, StopReason,
+    identify, identify_with_observer, model_cost, History, IdentifyConfig, SearchOptions,
+    SolveStatus, SolverSettings, StepOutcome, StopReason,
 };
 
 /// Theorem 1 on the full batch, checked from the records.
@@ -47,7 +45,10 @@ fn eta_too_small_for_the_truth_gives_the_best_fit_within_the_bound() {
     // so the run goes on, keeps |ψ| ≤ η, and cannot fit the data.
     let data = linear2d_data(40, 31);
     let config = IdentifyConfig {
-        eta: 1.0,
+        search: SearchOptions {
+            eta: 1.0,
+            ..SearchOptions::default()
+        },
         max_iterations: 3,
         tolerance: 1e-9,
         ..IdentifyConfig::default()
@@ -152,9 +153,12 @@ fn solver_that_never_succeeds_is_a_typed_error_after_the_allowed_failures() {
     let data = rigid_body_data(30, 33);
     for (max_iter, failures) in [(1, 2), (2, 3)] {
         let config = IdentifyConfig {
-            solver: SolverSettings {
-                max_iter,
-                ..SolverSettings::default()
+            search: SearchOptions {
+                solver: SolverSettings {
+                    max_iter,
+                    ..SolverSettings::default()
+                },
+                ..SearchOptions::default()
             },
             max_failed_iterations: failures,
             ..IdentifyConfig::default()

@@ -1,18 +1,13 @@
 //! The paper reproductions at reduced size: the same systems and pipeline as
-//! `examples/linear_2d.rs` and `examples/rigid_body_so3.rs` (included below),
+//! `examples/linear_2d.rs` and `examples/rigid_body_so3.rs`,
 //! with smaller data, minibatches and iteration caps so they run in CI.
 
 use std::path::{Path, PathBuf};
 
+use metriplectic::experiments;
 use metriplectic::reproduction::{run, Options, Scheme, Solver, Summary};
+use metriplectic::systems::{Linear2d, RigidBody};
 use metriplectic_runtime::prelude::*;
-
-#[allow(dead_code)]
-#[path = "../examples/linear_2d.rs"]
-mod linear_2d;
-#[allow(dead_code)]
-#[path = "../examples/rigid_body_so3.rs"]
-mod rigid_body_so3;
 
 fn output_dir(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -101,12 +96,12 @@ fn check_outputs<S: MetriplecticSystem>(out: &Path, summary: &Summary) -> Summar
 #[test]
 fn rigid_body_so3_reduced_reproduction_converges() {
     let out = output_dir("repro_so3");
-    let summary = run::<rigid_body_so3::RigidBody>(
-        &rigid_body_so3::experiment(),
+    let summary = run::<RigidBody>(
+        &experiments::rigid_body_so3(),
         &reduced_options(&out, 300, 30),
     )
     .unwrap();
-    check_outputs::<rigid_body_so3::RigidBody>(&out, &summary);
+    check_outputs::<RigidBody>(&out, &summary);
     assert_eq!(summary.system, "RigidBody");
     assert_eq!(summary.samples_train, 40 * 30);
     assert_eq!(summary.samples_heldout, 4 * 30);
@@ -124,10 +119,9 @@ fn rigid_body_so3_reduced_reproduction_converges() {
 fn linear_2d_reduced_reproduction_converges() {
     let out = output_dir("repro_linear_2d");
     let summary =
-        run::<linear_2d::Oscillator>(&linear_2d::experiment(), &reduced_options(&out, 300, 30))
-            .unwrap();
-    let parsed = check_outputs::<linear_2d::Oscillator>(&out, &summary);
-    assert_eq!(parsed.system, "Oscillator");
+        run::<Linear2d>(&experiments::linear_2d(), &reduced_options(&out, 300, 30)).unwrap();
+    let parsed = check_outputs::<Linear2d>(&out, &summary);
+    assert_eq!(parsed.system, "Linear2d");
     assert!(
         summary.heldout_relative_error <= 1e-6,
         "held-out relative error {:e} after {} iterations",
@@ -143,8 +137,8 @@ fn reproduction_refuses_a_non_empty_output_directory() {
     let out = output_dir("repro_not_empty");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("keep.txt"), "precious").unwrap();
-    let err = run::<linear_2d::Oscillator>(&linear_2d::experiment(), &reduced_options(&out, 50, 1))
-        .unwrap_err();
+    let err =
+        run::<Linear2d>(&experiments::linear_2d(), &reduced_options(&out, 50, 1)).unwrap_err();
     assert!(err.to_string().contains("--force"), "{err}");
     assert_eq!(
         std::fs::read_to_string(out.join("keep.txt")).unwrap(),

@@ -3,20 +3,18 @@
 //! (reproducibility, exact derivatives, noise and outliers as documented,
 //! held-out split by trajectory).
 
-mod common;
-
 use std::path::PathBuf;
 
-use common::paper_systems::{Linear2d, RigidBody};
-use metriplectic_runtime::csv_io::{
+use crate::common::{Linear2d, RigidBody};
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::Trajectory;
+use metriplectic_runtime::{
     read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to, CsvError,
     WriteMode,
 };
-use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::synthesize::{
+use metriplectic_runtime::{
     synthesize, InitialStates, Noise, Outliers, SampleTimes, SynthesisOptions,
 };
-use metriplectic_runtime::Trajectory;
 
 const NAMES: &[&str] = &["q", "p"];
 

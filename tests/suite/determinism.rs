@@ -2,9 +2,7 @@
 //! aside) — within a process and across OpenBLAS thread counts, since
 //! Clarabel's PSD cone calls into OpenBLAS, which may thread.
 
-mod common;
-
-use common::paper_systems::*;
+use crate::common::*;
 use metriplectic_runtime::{identify, History, IdentifyConfig, IterationScheme, TrustRegion};
 
 fn without_timings(history: &History) -> History {
@@ -72,7 +70,7 @@ fn equal_inputs_give_equal_histories_across_blas_thread_counts() {
         let status = std::process::Command::new(&exe)
             .args([
                 "--exact",
-                "determinism_child",
+                "determinism::determinism_child",
                 "--ignored",
                 "--test-threads=1",
             ])

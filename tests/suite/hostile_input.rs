@@ -2,9 +2,7 @@
 //! single samples, extreme magnitudes, wrong or corrupt model files. Each is
 //! a typed error or a documented behaviour, never a panic or an OOM.
 
-mod common;
-
-use common::paper_systems::*;
+use crate::common::*;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{identify, model_cost, IdentifyConfig, StepOutcome};
 

@@ -2,16 +2,13 @@
 //! paper's reference models to the zero set of their free energy, and the
 //! free-energy monotonicity check (which must flag a model with K ≺ 0).
 
-mod common;
-
-use common::paper_systems::{Linear2d, RigidBody};
-use metriplectic_runtime::diagnostics::free_energy_diagnostics;
-use metriplectic_runtime::model::identity_metric;
+use crate::common::{identity_metric, Linear2d, RigidBody};
+use metriplectic_runtime::free_energy_diagnostics;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::simulate::{
+use metriplectic_runtime::InitialStates;
+use metriplectic_runtime::{
     integrate, simulate, IntegratorOptions, OutputTimes, SimulationOptions,
 };
-use metriplectic_runtime::synthesize::InitialStates;
 use nalgebra::Matrix3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

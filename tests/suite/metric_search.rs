@@ -1,14 +1,9 @@
 //! Metric search alone (entropy fixed to the truth) recovers K = I for both
 //! paper systems; the returned K(x) is PSD and equals Z(x)ᵀ Q₁ Z(x).
 
-mod common;
-
-use common::paper_systems::*;
-use metriplectic_runtime::model::identity_metric;
+use crate::common::*;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{
-    metric_search, MetricSearch, MetricSearchOptions, SolveStatus, SosBasis,
-};
+use metriplectic_runtime::{metric_search, MetricSearch, SearchOptions, SolveStatus, SosBasis};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -67,7 +62,7 @@ fn check_certificate<S: MetriplecticSystem>(fit: &MetricSearch, eta: f64, seed: 
 }
 
 fn recovers_identity<S: MetriplecticSystem>(data: &Dataset) {
-    let options = MetricSearchOptions::default();
+    let options = SearchOptions::default();
     let fit = metric_search::<S>(data, S::REFERENCE_ENTROPY.unwrap(), &options).unwrap();
     let error = max_abs_difference(&fit.coefficients, &identity_metric::<S>(1.0));
     let cost = fit.report.cost.unwrap();
@@ -101,9 +96,9 @@ fn rigid_body_metric_is_recovered_with_the_true_entropy() {
 /// strictly feasible point (DESIGN.md §2). Record what Clarabel does with it
 /// and check that whatever it returns is still a valid certificate.
 fn full_tables<S: MetriplecticSystem>(data: &Dataset) {
-    let options = MetricSearchOptions {
+    let options = SearchOptions {
         sos: SosBasis::Full,
-        ..MetricSearchOptions::default()
+        ..SearchOptions::default()
     };
     let fit = metric_search::<S>(data, S::REFERENCE_ENTROPY.unwrap(), &options).unwrap();
     let error = max_abs_difference(&fit.coefficients, &identity_metric::<S>(1.0));

@@ -1,15 +1,12 @@
 //! Entropy search alone (metric fixed to the truth K = I) recovers the true
 //! entropy of both paper systems from noise-free data.
 
-mod common;
-
-use common::paper_systems::*;
-use metriplectic_runtime::model::identity_metric;
+use crate::common::*;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{entropy_search, EntropySearchOptions, SolveStatus};
+use metriplectic_runtime::{entropy_search, SearchOptions, SolveStatus};
 
 fn recovers_reference_entropy<S: MetriplecticSystem>(data: &Dataset) {
-    let options = EntropySearchOptions::default();
+    let options = SearchOptions::default();
     let fit = entropy_search::<S>(data, &identity_metric::<S>(1.0), &options).unwrap();
     let truth = S::REFERENCE_ENTROPY.unwrap();
     let error = max_abs_difference(&fit.coefficients, truth);

@@ -6,12 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
+use metriplectic::experiments;
 use metriplectic::reproduction::{run_until, Options, ReproductionError, Scheme, Solver};
+use metriplectic::systems::Linear2d;
 use metriplectic_runtime::prelude::*;
-
-#[allow(dead_code)]
-#[path = "../examples/linear_2d.rs"]
-mod linear_2d;
 
 fn output_dir(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -41,11 +39,10 @@ fn tiny_options(out: &Path) -> Options {
 
 #[test]
 fn interrupted_reproduction_keeps_its_state_and_resumes_to_the_same_model() {
-    use linear_2d::{experiment, Oscillator};
-    let experiment = experiment();
+    let experiment = experiments::linear_2d();
 
     let straight = output_dir("interrupt-straight");
-    let summary = run_until::<Oscillator>(
+    let summary = run_until::<Linear2d>(
         &experiment,
         &tiny_options(&straight),
         &AtomicBool::new(false),
@@ -55,13 +52,13 @@ fn interrupted_reproduction_keeps_its_state_and_resumes_to_the_same_model() {
 
     // "Ctrl-C" before the first iteration ends: it stops after iteration 1.
     let out = output_dir("interrupt-resumed");
-    let err = run_until::<Oscillator>(&experiment, &tiny_options(&out), &AtomicBool::new(true))
+    let err = run_until::<Linear2d>(&experiment, &tiny_options(&out), &AtomicBool::new(true))
         .unwrap_err();
     assert!(
         matches!(err, ReproductionError::Interrupted { iterations: 1, .. }),
         "{err}"
     );
-    let interrupted_model = Model::<Oscillator>::load(out.join("model.json")).unwrap();
+    let interrupted_model = Model::<Linear2d>::load(out.join("model.json")).unwrap();
     assert!(interrupted_model
         .entropy_coefficients()
         .iter()
@@ -72,10 +69,10 @@ fn interrupted_reproduction_keeps_its_state_and_resumes_to_the_same_model() {
     assert!(!out.join("summary.json").exists());
 
     // A fresh run refuses the non-empty directory; --resume continues it.
-    let err = run_until::<Oscillator>(&experiment, &tiny_options(&out), &AtomicBool::new(false))
+    let err = run_until::<Linear2d>(&experiment, &tiny_options(&out), &AtomicBool::new(false))
         .unwrap_err();
     assert!(matches!(err, ReproductionError::OutputNotEmpty(_)), "{err}");
-    let resumed = run_until::<Oscillator>(
+    let resumed = run_until::<Linear2d>(
         &experiment,
         &Options {
             resume: true,
@@ -95,7 +92,7 @@ fn interrupted_reproduction_keeps_its_state_and_resumes_to_the_same_model() {
 
     // --resume without a checkpoint is an option error, not a fresh run.
     let empty = output_dir("interrupt-nothing");
-    let err = run_until::<Oscillator>(
+    let err = run_until::<Linear2d>(
         &experiment,
         &Options {
             resume: true,

@@ -1,7 +1,11 @@
-//! The two systems of the paper's experiments (DESIGN.md §3), declared with
-//! `metriplectic!`, and noise-free data generated from their reference models.
-
-#![allow(dead_code)]
+//! The paper's two systems, declared once for the examples, the tests and
+//! the benchmarks, and noise-free samples of their reference models.
+//!
+//! Both come from the authors' MATLAB code. The 2-D free energy printed in
+//! the paper, −½(p² + 4p⁴ − 4q⁴)², is a typo: the code and the paper's
+//! figure use E = −½(p² + 4q⁴ − 4q²)², whose zero set is the figure eight
+//! (q, p) = (cos t, sin 2t). The rigid body's inertia J = diag(0.1, 0.2, 0.15)
+//! appears only in the code. In both, S = E − H and K = I.
 
 use metriplectic_runtime::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -9,7 +13,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 metriplectic! {
-    /// The linear 2-D example: canonical Π, figure-eight free energy.
+    /// The paper's 2-D example: a canonical oscillator whose free energy
+    /// E = −½(p² + 4q⁴ − 4q²)² vanishes on a figure eight.
     pub struct Linear2d;
     state (q, p);
     poisson = [[0, 1], [-1, 0]];
@@ -23,7 +28,9 @@ metriplectic! {
 }
 
 metriplectic! {
-    /// The SO(3) rigid body: Lie–Poisson Π(p) = p̂, H = ½ pᵀ J⁻¹ p, J = diag(0.1, 0.2, 0.15).
+    /// The paper's SO(3) example: a free rigid body on so(3)* (Lie–Poisson
+    /// Π(p) = p̂, H = ½ pᵀ J⁻¹ p) whose free energy E = −½(|p|² − 1)²
+    /// vanishes on the unit sphere. Since p̂∇E = 0 the true flow is radial.
     pub struct RigidBody;
     state (px, py, pz);
     const j1 = 0.1;
@@ -39,14 +46,20 @@ metriplectic! {
     }
 }
 
-/// `count` states from `sample_state` with ẋ from the reference model of `S`.
-fn reference_data<S: MetriplecticSystem>(
+/// `count` states drawn by `sample_state`, with ẋ from the reference model
+/// of `S` (exact, no noise).
+///
+/// # Panics
+///
+/// If `S` declares no reference model or `sample_state` returns states of
+/// the wrong dimension (these are fixtures for tests and benchmarks).
+pub fn reference_samples<S: MetriplecticSystem>(
     count: usize,
     seed: u64,
     mut sample_state: impl FnMut(&mut ChaCha8Rng) -> Vec<f64>,
 ) -> Dataset {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let model = Model::<S>::reference().expect("paper systems declare a reference");
+    let model = Model::<S>::reference().expect("the system declares a reference");
     let mut states = Vec::with_capacity(count * S::DIM);
     let mut derivatives = vec![0.0; count * S::DIM];
     for i in 0..count {
@@ -59,16 +72,16 @@ fn reference_data<S: MetriplecticSystem>(
     Dataset::from_flat(S::DIM, states, derivatives).expect("finite reference data")
 }
 
-/// 2-D states uniform in [−1.5, 1.5]².
+/// 2-D states uniform in [−1.5, 1.5]² with ẋ from [`Linear2d`]'s reference.
 pub fn linear2d_data(count: usize, seed: u64) -> Dataset {
-    reference_data::<Linear2d>(count, seed, |rng| {
+    reference_samples::<Linear2d>(count, seed, |rng| {
         vec![rng.random_range(-1.5..1.5), rng.random_range(-1.5..1.5)]
     })
 }
 
-/// SO(3) states uniform in the ball of radius 1.5.
+/// States uniform in the ball of radius 1.5 with ẋ from [`RigidBody`]'s reference.
 pub fn rigid_body_data(count: usize, seed: u64) -> Dataset {
-    reference_data::<RigidBody>(count, seed, |rng| loop {
+    reference_samples::<RigidBody>(count, seed, |rng| loop {
         let p: Vec<f64> = (0..3).map(|_| rng.random_range(-1.5..1.5)).collect();
         if p.iter().map(|v| v * v).sum::<f64>() <= 2.25 {
             return p;
@@ -76,33 +89,18 @@ pub fn rigid_body_data(count: usize, seed: u64) -> Dataset {
     })
 }
 
-/// The paper's initial entropy: the true coefficients plus N(0, σ²) noise.
+/// The paper's initial entropy: the true coefficients plus N(0, σ²) noise on
+/// each, from a generator seeded with `seed`.
+///
+/// # Panics
+///
+/// If `S` declares no reference or σ is not finite and non-negative.
 pub fn perturbed_reference_entropy<S: MetriplecticSystem>(sigma: f64, seed: u64) -> Vec<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let noise = Normal::new(0.0, sigma).expect("σ is finite and positive");
+    let noise = Normal::new(0.0, sigma).expect("σ is finite and non-negative");
     S::REFERENCE_ENTROPY
-        .expect("paper systems declare a reference")
+        .expect("the system declares a reference")
         .iter()
         .map(|c| c + noise.sample(&mut rng))
         .collect()
-}
-
-/// max |a − b|.
-pub fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
-
-/// Σ|f(x) − ẋ| / Σ|ẋ| of `model` on `data`.
-pub fn relative_error<S: MetriplecticSystem>(model: &Model<S>, data: &Dataset) -> f64 {
-    let mut f = vec![0.0; S::DIM];
-    let (mut num, mut den) = (0.0, 0.0);
-    for (x, xdot) in data.iter() {
-        model.vector_field(x, &mut f).expect("dimension checked");
-        num += f.iter().zip(xdot).map(|(a, b)| (a - b).abs()).sum::<f64>();
-        den += xdot.iter().map(|v| v.abs()).sum::<f64>();
-    }
-    num / den
 }

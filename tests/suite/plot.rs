@@ -8,10 +8,10 @@
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 
+use metriplectic_runtime::Error;
 use metriplectic_runtime::{
     free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels, PlotError,
 };
-use metriplectic_runtime::Error;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -3,13 +3,11 @@
 //! steps), and the noise suppression of the Savitzky–Golay differentiator
 //! against its predicted noise level.
 
-mod common;
-
-use common::paper_systems::Linear2d;
-use metriplectic_runtime::derivative::{differentiate, estimate_derivatives, DerivativeMethod};
+use crate::common::Linear2d;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::simulate::{simulate, OutputTimes, SimulationOptions};
 use metriplectic_runtime::Trajectory;
+use metriplectic_runtime::{differentiate, estimate_derivatives, DerivativeMethod};
+use metriplectic_runtime::{simulate, OutputTimes, SimulationOptions};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -168,7 +166,7 @@ fn estimated_derivatives_of_a_simulated_trajectory_match_the_vector_field() {
     let model = Model::<Linear2d>::reference().unwrap();
     let options = SimulationOptions {
         output: OutputTimes::Interval(0.002),
-        integrator: metriplectic_runtime::simulate::IntegratorOptions {
+        integrator: metriplectic_runtime::IntegratorOptions {
             rtol: 1e-12,
             atol: 1e-14,
             ..Default::default()

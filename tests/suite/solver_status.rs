@@ -5,12 +5,9 @@
 //! direction near the exact fit (Clarabel ended `AlmostSolved` on the
 //! paper's run) and the step wandered along the symmetry.
 
-mod common;
-
-use common::paper_systems::*;
-use metriplectic_runtime::model::identity_metric;
+use crate::common::*;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{joint_step, model_cost, MetricSearchOptions, SolveStatus};
+use metriplectic_runtime::{joint_step, model_cost, SearchOptions, SolveStatus};
 
 /// ψ + (σ₁, −σ₁, σ₁, …)·scale: a deterministic perturbation of the truth.
 fn perturbed(truth: &[f64], scale: f64) -> Vec<f64> {
@@ -34,7 +31,7 @@ fn joint_step_at_the_exact_so3_fit_is_solved_and_stays_put() {
     // Solved and choose no move.
     let data = rigid_body_data(300, 41);
     let truth = Model::<RigidBody>::reference().unwrap();
-    let step = joint_step(&data, &truth, 0.8, &MetricSearchOptions::default()).unwrap();
+    let step = joint_step(&data, &truth, 0.8, &SearchOptions::default()).unwrap();
     let moved = step_length(&truth, &step.entropy, &step.metric);
     let cost = step.report.cost.unwrap();
     eprintln!(
@@ -61,7 +58,7 @@ fn joint_step_near_the_exact_so3_fit_is_solved_and_predicts_its_decrease() {
     let model =
         Model::<RigidBody>::new(perturbed(truth, 1e-4), identity_metric::<RigidBody>(1.0)).unwrap();
     let before = model_cost(&model, &data).unwrap();
-    let step = joint_step(&data, &model, 0.8, &MetricSearchOptions::default()).unwrap();
+    let step = joint_step(&data, &model, 0.8, &SearchOptions::default()).unwrap();
     let after = step.report.cost.unwrap();
     let moved = step_length(&model, &step.entropy, &step.metric);
     eprintln!(

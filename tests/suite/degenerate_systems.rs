@@ -9,8 +9,8 @@
 //! iterations of `identify` must fit held-out trajectories.
 
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::synthesize::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
 use metriplectic_runtime::{identify, IdentifyConfig, IterationScheme, SolveStatus, TrustRegion};
+use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

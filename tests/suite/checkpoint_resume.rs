@@ -1,16 +1,14 @@
 //! Long runs: periodic atomic checkpoints, and resuming a run so that it
 //! continues exactly as if it had never stopped.
 
-mod common;
-
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
-use common::paper_systems::*;
+use crate::common::*;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
     identify, identify_resume, identify_with_observer, CheckpointConfig, History, IdentifyConfig,
-    IterationScheme, StopReason, TrustRegion,
+    IterationScheme, SearchOptions, StopReason, TrustRegion,
 };
 
 /// A fresh scratch directory for one test.
@@ -159,12 +157,15 @@ fn resuming_with_other_data_configuration_or_system_is_refused() {
     assert!(matches!(err, Error::CheckpointMismatch { .. }), "{err}");
 
     let other_eta = IdentifyConfig {
-        eta: 25.0,
+        search: SearchOptions {
+            eta: 25.0,
+            ..SearchOptions::default()
+        },
         ..config(None)
     };
     let err = identify_resume::<Linear2d>(&path, &data, &other_eta).unwrap_err();
     assert!(
-        matches!(err, Error::CheckpointMismatch { ref reason, .. } if reason.contains("`eta`")),
+        matches!(err, Error::CheckpointMismatch { ref reason, .. } if reason.contains("`search`") && reason.contains("25")),
         "{err}"
     );
     let other_seed = IdentifyConfig {

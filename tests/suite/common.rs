@@ -1,0 +1,43 @@
+//! Helpers the capability modules share: the paper systems and their
+//! reference data (declared once in the root package), and comparisons.
+
+pub use metriplectic::systems::{
+    linear2d_data, perturbed_reference_entropy, rigid_body_data, Linear2d, RigidBody,
+};
+use metriplectic_runtime::prelude::*;
+
+/// θ of the constant metric K = c·I for system `S`.
+pub fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {
+    let unit = Model::<S>::with_identity_metric(vec![0.0; S::entropy_coefficient_count()])
+        .expect("valid coefficients");
+    unit.metric_coefficients()
+        .iter()
+        .map(|t| t * scale)
+        .collect()
+}
+
+/// max |a − b|.
+pub fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Σ|f(x) − ẋ| / Σ|ẋ| of `model` on `data`.
+pub fn relative_error<S: MetriplecticSystem>(model: &Model<S>, data: &Dataset) -> f64 {
+    let mut f = vec![0.0; S::DIM];
+    let (mut num, mut den) = (0.0, 0.0);
+    for (x, xdot) in data.iter() {
+        model.vector_field(x, &mut f).expect("dimension checked");
+        num += f.iter().zip(xdot).map(|(a, b)| (a - b).abs()).sum::<f64>();
+        den += xdot.iter().map(|v| v.abs()).sum::<f64>();
+    }
+    num / den
+}
+
+/// Position of the upper-triangle pair (j, k) among the n(n+1)/2 pairs of θ.
+pub fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
+    let (j, k) = (j.min(k), j.max(k));
+    j * dim - j * j.saturating_sub(1) / 2 + (k - j)
+}

@@ -1,0 +1,37 @@
+//! End-to-end tests of the metriplectic toolkit, one module per capability:
+//! find the test of a feature by its name.
+//!
+//! | module | capability |
+//! | --- | --- |
+//! | `generated_code` | the code `metriplectic!` generates, against hand-written formulas |
+//! | `data_io` | trajectory CSV, datasets, synthesis |
+//! | `derivatives` | derivative estimation from states |
+//! | `simulation` | integration, free-energy checks |
+//! | `entropy_search`, `metric_search` | the two convex subproblems on the paper systems |
+//! | `solver_status` | solver statuses and the joint step on the paper systems |
+//! | `identification` | Algorithms 1 and 2 and the joint scheme |
+//! | `checkpoint_resume` | checkpoints and resuming a run |
+//! | `determinism` | identical results for a seed |
+//! | `degenerate_systems` | systems at the edges of the DSL |
+//! | `hostile_input`, `solver_trouble` | bad data and failing solves |
+//! | `reproduction`, `reproduction_interrupt` | the paper reproductions end to end |
+//! | `plot` | figures |
+
+mod common;
+
+mod checkpoint_resume;
+mod data_io;
+mod degenerate_systems;
+mod derivatives;
+mod determinism;
+mod entropy_search;
+mod generated_code;
+mod hostile_input;
+mod identification;
+mod metric_search;
+mod plot;
+mod reproduction;
+mod reproduction_interrupt;
+mod simulation;
+mod solver_status;
+mod solver_trouble;
