@@ -17,7 +17,7 @@ use rand_chacha::ChaCha8Rng;
 metriplectic! {
     /// n = 1: the only skew 1×1 matrix is 0, so ẋ = K(x)(H′ + S′). The
     /// reference metric is constant: the global certificate 0 ⪯ K ⪯ ηI only
-    /// admits constant metrics (DESIGN.md §2), whatever the declared degree.
+    /// admits constant metrics (docs/method.md §2), whatever the declared degree.
     pub struct OneState;
     state (x);
     poisson = [[0]];

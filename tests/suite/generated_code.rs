@@ -292,7 +292,7 @@ fn linear_2d_reference_model() {
         Model::<Linear2d>::reference().unwrap()
     );
     // The reference entropy's true coefficients: −8 q⁸ is the largest in
-    // magnitude besides 16 q⁶ (DESIGN.md §3: η ≥ 16).
+    // magnitude besides 16 q⁶ (docs/method.md §5: η ≥ 16).
     let psi = Linear2d::REFERENCE_ENTROPY.unwrap();
     let max = psi.iter().fold(0.0f64, |a, c| a.max(c.abs()));
     assert_eq!(max, 16.0);
@@ -324,7 +324,7 @@ fn rigid_body_known_parts() {
 #[test]
 fn rigid_body_reference_model() {
     check_reference::<RigidBody>(&RIGID_BODY, 6);
-    // p̂ ∇E = 0: the true flow is radial (DESIGN.md §3).
+    // p̂ ∇E = 0: the true flow is radial (docs/method.md §3).
     let model = Model::<RigidBody>::reference().unwrap();
     for x in random_points(3, 7) {
         let mut xdot = [0.0; 3];

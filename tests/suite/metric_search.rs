@@ -93,7 +93,7 @@ fn rigid_body_metric_is_recovered_with_the_true_entropy() {
 }
 
 /// The full (not facially reduced) tables describe a program with no
-/// strictly feasible point (DESIGN.md §2). Record what Clarabel does with it
+/// strictly feasible point (docs/method.md §2). Record what Clarabel does with it
 /// and check that whatever it returns is still a valid certificate.
 fn full_tables<S: MetriplecticSystem>(data: &Dataset) {
     let options = SearchOptions {

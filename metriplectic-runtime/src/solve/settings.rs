@@ -11,7 +11,7 @@ pub enum SolverBackend {
     /// The runtime's dense interior-point method (the default): the L1
     /// auxiliaries are eliminated analytically and each iteration factorises
     /// one small dense matrix. About an order of magnitude faster than
-    /// Clarabel on the paper's problems (see BENCHMARKS.md in the repository).
+    /// Clarabel on the paper's problems.
     #[default]
     Dense,
     /// Clarabel on a sparse conic form of the problem (cargo feature
