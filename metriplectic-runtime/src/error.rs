@@ -30,6 +30,31 @@ pub enum Error {
         /// The value itself (NaN or ±inf).
         value: f64,
     },
+    /// A metric that is not positive semidefinite: the free energy could
+    /// decrease along ẋ, which no model may allow.
+    #[error(
+        "{what}: K(x) is not positive semidefinite: eigenvalue {eigenvalue:e} in direction {direction:?}{}; the free energy would decrease there (dE/dt = ∇Eᵀ K ∇E < 0)",
+        state.as_ref().map(|x| format!(" at x = {x:?}")).unwrap_or_else(|| " (for every x: the metric is constant)".to_owned())
+    )]
+    MetricNotPositive {
+        /// Which metric (e.g. "metric coefficients", "initial metric coefficients").
+        what: String,
+        /// The most negative eigenvalue found.
+        eigenvalue: f64,
+        /// Its eigenvector y: yᵀ K y < 0.
+        direction: Vec<f64>,
+        /// A state where K(x) has that eigenvalue (`None` for a constant metric).
+        state: Option<Vec<f64>>,
+    },
+    /// A state-dependent metric for which no certificate of K(x) ⪰ 0 was
+    /// found, although no state with a negative eigenvalue was found either.
+    #[error("{what}: could not certify K(x) ⪰ 0 for every x: {reason}")]
+    MetricNotCertified {
+        /// Which metric.
+        what: String,
+        /// What the certificate search found.
+        reason: String,
+    },
     /// The system declares no reference model.
     #[error("system `{system}` declares no reference model (add a `reference {{ … }}` section to its `metriplectic!` block)")]
     NoReference {

@@ -195,16 +195,47 @@ fn check_features<S: MetriplecticSystem>(seed: u64) {
     }
 }
 
-/// The assembly blocks reproduce the vector field of a random model:
-/// drift + block · ψ and drift + block · θ both equal (Π + K)(∇H + ∇S).
+/// θ of a random state-dependent metric K(x) = Z(x)ᵀ Q Z(x) with
+/// Q = A Aᵀ ⪰ 0 over the full half-degree SOS basis.
+fn random_sos_metric<S: MetriplecticSystem>(rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let n = S::DIM;
+    let tables = S::SOS_FULL;
+    let half = tables.exponents.len();
+    let size = n * half;
+    let a: Vec<f64> = random_vector(size * size, rng);
+    let gram =
+        |r: usize, c: usize| -> f64 { (0..size).map(|k| a[r * size + k] * a[c * size + k]).sum() };
+    let basis = S::METRIC_EXPONENTS.len();
+    let mut theta = vec![0.0; S::metric_coefficient_count()];
+    for j in 0..n {
+        for k in j..n {
+            let pair = metric_pair_index(n, j, k);
+            for (alpha, pairs) in tables.matching.iter().enumerate() {
+                theta[pair * basis + alpha] = pairs
+                    .iter()
+                    .map(|&(b, g)| gram(j * half + b as usize, k * half + g as usize))
+                    .sum();
+            }
+        }
+    }
+    theta
+}
+
+/// The assembly blocks reproduce the vector field of random models with
+/// state-dependent metrics: drift + block · ψ and drift + block · θ both
+/// equal (Π + K)(∇H + ∇S).
 fn check_blocks<S: MetriplecticSystem>(seed: u64) {
     let n = S::DIM;
     let p = S::entropy_coefficient_count();
-    let t = S::metric_coefficient_count();
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xb10c);
-    for x in random_points(n, seed) {
-        let model = Model::<S>::new(random_vector(p, &mut rng), random_vector(t, &mut rng))
-            .expect("random model");
+    let models: Vec<Model<S>> = (0..4)
+        .map(|_| {
+            let metric = random_sos_metric::<S>(&mut rng);
+            Model::<S>::new(random_vector(p, &mut rng), metric).expect("random model")
+        })
+        .collect();
+    for (i, x) in random_points(n, seed).into_iter().enumerate() {
+        let model = &models[i % models.len()];
         let mut xdot = vec![0.0; n];
         model.vector_field(&x, &mut xdot).unwrap();
         let scale = xdot.iter().fold(1.0f64, |a, v| a.max(v.abs()));
@@ -225,7 +256,7 @@ fn check_blocks<S: MetriplecticSystem>(seed: u64) {
 
         let mut gradient = vec![0.0; n];
         model.free_energy_gradient(&x, &mut gradient).unwrap();
-        let mut block = vec![0.0; n * t];
+        let mut block = vec![0.0; n * S::metric_coefficient_count()];
         S::metric_block(&x, &gradient, &mut block, &mut drift);
         let lhs: Vec<f64> = mat_vec(&block, model.metric_coefficients())
             .iter()

@@ -28,6 +28,7 @@ mod entropy_search;
 mod generated_code;
 mod hostile_input;
 mod identification;
+mod metric_positivity;
 mod metric_search;
 mod plot;
 mod reproduction;

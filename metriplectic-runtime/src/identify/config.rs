@@ -5,7 +5,8 @@ use serde::{Deserialize, Serialize};
 
 use super::checkpoint::CheckpointConfig;
 use super::search::SearchOptions;
-use crate::error::{check_finite, check_len, invalid, Result};
+use crate::error::{invalid, Result};
+use crate::model::{check_entropy, check_metric_coefficients};
 use crate::system::MetriplecticSystem;
 
 /// Configuration of [`identify`](crate::identify). Build with struct-update syntax from
@@ -108,20 +109,10 @@ impl IdentifyConfig {
             ));
         }
         if let Some(entropy) = &self.initial_entropy {
-            check_len(
-                "initial entropy coefficients",
-                entropy,
-                S::entropy_coefficient_count(),
-            )?;
-            check_finite("initial entropy coefficients", entropy)?;
+            check_entropy::<S>("initial entropy coefficients", entropy)?;
         }
         if let Some(metric) = &self.initial_metric {
-            check_len(
-                "initial metric coefficients",
-                metric,
-                S::metric_coefficient_count(),
-            )?;
-            check_finite("initial metric coefficients", metric)?;
+            check_metric_coefficients::<S>("initial metric coefficients", metric)?;
         }
         if let IterationScheme::AlternatingThenJoint(trust) = &self.scheme {
             trust.validate()?;

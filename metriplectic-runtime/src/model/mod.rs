@@ -7,7 +7,10 @@
 use std::fmt;
 use std::marker::PhantomData;
 
+mod certificate;
 mod file;
+
+pub(crate) use certificate::check_metric;
 
 use crate::error::{check_finite, check_len, Error, Result};
 use crate::system::{with_scratch, MetriplecticSystem};
@@ -51,23 +54,39 @@ impl<S: MetriplecticSystem> fmt::Debug for Model<S> {
 }
 
 impl<S: MetriplecticSystem> Model<S> {
+    /// The largest coefficient magnitude a model accepts, 1e15: beyond it
+    /// the free energy and its rate overflow `f64` at ordinary states.
+    pub const MAX_COEFFICIENT: f64 = 1e15;
+
     /// A model from entropy coefficients ψ (`S::entropy_coefficient_count()`)
     /// and metric coefficients θ (`S::metric_coefficient_count()`).
     ///
-    /// Rejects wrong lengths and non-finite values.
+    /// Rejects wrong lengths, non-finite values, coefficients beyond
+    /// ±[`MAX_COEFFICIENT`](Self::MAX_COEFFICIENT), and — the free energy must
+    /// never decrease — a metric that is not positive semidefinite for every
+    /// state: [`Error::MetricNotPositive`] names the negative eigenvalue (and
+    /// a state where it occurs, for a state-dependent metric). A
+    /// state-dependent metric is accepted with a sum-of-squares certificate
+    /// K(x) = Z(x)ᵀ Q Z(x), Q ⪰ 0, which the constructor searches for;
+    /// [`Error::MetricNotCertified`] if none is found.
+    ///
+    /// ```
+    /// # use metriplectic_runtime::prelude::*;
+    /// # metriplectic! {
+    /// #     pub struct Decay;
+    /// #     state (x, y);
+    /// #     poisson = [[0, 1], [-1, 0]];
+    /// #     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
+    /// #     entropy degree 2;
+    /// #     metric degree 0;
+    /// # }
+    /// // K = [[1, 2], [2, 1]] has the eigenvalue −1: E would fall along (1, −1).
+    /// let err = Model::<Decay>::new(vec![0.0; 5], vec![1.0, 2.0, 1.0]).unwrap_err();
+    /// assert!(matches!(err, Error::MetricNotPositive { .. }));
+    /// ```
     pub fn new(entropy: Vec<f64>, metric: Vec<f64>) -> Result<Self> {
-        check_len(
-            "entropy coefficients",
-            &entropy,
-            S::entropy_coefficient_count(),
-        )?;
-        check_len(
-            "metric coefficients",
-            &metric,
-            S::metric_coefficient_count(),
-        )?;
-        check_finite("entropy coefficients", &entropy)?;
-        check_finite("metric coefficients", &metric)?;
+        check_entropy::<S>("entropy coefficients", &entropy)?;
+        check_metric_coefficients::<S>("metric coefficients", &metric)?;
         Ok(Self {
             entropy,
             metric,
@@ -100,38 +119,34 @@ impl<S: MetriplecticSystem> Model<S> {
 
     /// Replaces the entropy coefficients (same checks as [`Model::new`]).
     pub fn set_entropy_coefficients(&mut self, entropy: Vec<f64>) -> Result<()> {
-        check_len(
-            "entropy coefficients",
-            &entropy,
-            S::entropy_coefficient_count(),
-        )?;
-        check_finite("entropy coefficients", &entropy)?;
+        check_entropy::<S>("entropy coefficients", &entropy)?;
         self.entropy = entropy;
         Ok(())
     }
 
-    /// Replaces the metric coefficients (same checks as [`Model::new`]).
+    /// Replaces the metric coefficients (same checks as [`Model::new`]); on
+    /// error the model is unchanged.
     pub fn set_metric_coefficients(&mut self, metric: Vec<f64>) -> Result<()> {
-        check_len(
-            "metric coefficients",
-            &metric,
-            S::metric_coefficient_count(),
-        )?;
-        check_finite("metric coefficients", &metric)?;
+        check_metric_coefficients::<S>("metric coefficients", &metric)?;
         self.metric = metric;
         Ok(())
     }
 
-    /// Entropy S(x).
+    /// Entropy S(x). Errors on a state of the wrong length, a non-finite
+    /// state, or a value that overflows.
     pub fn entropy(&self, x: &[f64]) -> Result<f64> {
         check_state::<S>(x)?;
-        Ok(S::entropy_value(x, &self.entropy))
+        finite_value("entropy", x, S::entropy_value(x, &self.entropy))
     }
 
-    /// Free energy E(x) = H(x) + S(x).
+    /// Free energy E(x) = H(x) + S(x) (errors as for [`entropy`](Self::entropy)).
     pub fn free_energy(&self, x: &[f64]) -> Result<f64> {
         check_state::<S>(x)?;
-        Ok(S::hamiltonian(x) + S::entropy_value(x, &self.entropy))
+        finite_value(
+            "free energy",
+            x,
+            S::hamiltonian(x) + S::entropy_value(x, &self.entropy),
+        )
     }
 
     /// ∇E(x) = ∇H(x) + ∇S(x) into `grad` (length n).
@@ -139,7 +154,7 @@ impl<S: MetriplecticSystem> Model<S> {
         check_state::<S>(x)?;
         check_len("gradient output", grad, S::DIM)?;
         self.free_energy_gradient_unchecked(x, grad);
-        Ok(())
+        finite_values("free-energy gradient", x, grad)
     }
 
     /// K(x) into `metric` (n × n, row-major).
@@ -147,7 +162,7 @@ impl<S: MetriplecticSystem> Model<S> {
         check_state::<S>(x)?;
         check_len("metric output", metric, S::DIM * S::DIM)?;
         S::metric_value(x, &self.metric, metric);
-        Ok(())
+        finite_values("metric", x, metric)
     }
 
     /// The vector field f(x) = (Π(x) + K(x)) ∇E(x) into `xdot` (length n).
@@ -155,19 +170,20 @@ impl<S: MetriplecticSystem> Model<S> {
         check_state::<S>(x)?;
         check_len("vector field output", xdot, S::DIM)?;
         self.vector_field_unchecked(x, xdot);
-        Ok(())
+        finite_values("vector field", x, xdot)
     }
 
-    /// dE/dt = ∇Eᵀ K ∇E at x: non-negative whenever K(x) ⪰ 0.
+    /// dE/dt = ∇Eᵀ K ∇E at x: non-negative, since K(x) ⪰ 0.
     pub fn free_energy_rate(&self, x: &[f64]) -> Result<f64> {
         check_state::<S>(x)?;
         let n = S::DIM;
-        Ok(with_scratch(n + n * n, |scratch| {
+        let rate = with_scratch(n + n * n, |scratch| {
             let (grad, metric) = scratch.split_at_mut(n);
             self.free_energy_gradient_unchecked(x, grad);
             S::metric_value(x, &self.metric, metric);
             quadratic_form(metric, grad)
-        }))
+        });
+        finite_value("free-energy rate", x, rate)
     }
 
     /// ∇E without length checks: callers have checked `x` and `grad`.
@@ -220,6 +236,56 @@ pub(crate) fn quadratic_form(a: &[f64], v: &[f64]) -> f64 {
         .sum()
 }
 
+/// Length, finiteness and magnitude of entropy coefficients.
+pub(crate) fn check_entropy<S: MetriplecticSystem>(what: &str, entropy: &[f64]) -> Result<()> {
+    check_len(what, entropy, S::entropy_coefficient_count())?;
+    check_magnitude::<S>(what, entropy)
+}
+
+/// Length, finiteness and magnitude of metric coefficients, and K(x) ⪰ 0.
+pub(crate) fn check_metric_coefficients<S: MetriplecticSystem>(
+    what: &str,
+    metric: &[f64],
+) -> Result<()> {
+    check_len(what, metric, S::metric_coefficient_count())?;
+    check_magnitude::<S>(what, metric)?;
+    check_metric::<S>(what, metric)
+}
+
+fn check_magnitude<S: MetriplecticSystem>(what: &str, values: &[f64]) -> Result<()> {
+    check_finite(what, values)?;
+    let limit = Model::<S>::MAX_COEFFICIENT;
+    match values.iter().position(|v| v.abs() > limit) {
+        None => Ok(()),
+        Some(index) => Err(crate::error::invalid(
+            what,
+            format!(
+                "coefficient {index} is {:e}, beyond ±{limit:e}: the free energy and its rate \
+                 would overflow",
+                values[index]
+            ),
+        )),
+    }
+}
+
+/// `value` unless it overflowed.
+fn finite_value(what: &str, x: &[f64], value: f64) -> Result<f64> {
+    finite_values(what, x, std::slice::from_ref(&value)).map(|()| value)
+}
+
+/// Ok unless an entry of `values`, computed at state `x`, overflowed.
+fn finite_values(what: &str, x: &[f64], values: &[f64]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(Error::NonFinite {
+            what: format!("{what} at x = {x:?} (overflow)"),
+            index,
+            value: values[index],
+        }),
+    }
+}
+
 fn check_state<S: MetriplecticSystem>(x: &[f64]) -> Result<()> {
-    check_len("state", x, S::DIM)
+    check_len("state", x, S::DIM)?;
+    check_finite("state", x)
 }

@@ -182,3 +182,34 @@ pub(super) fn check_energy(
 pub(super) fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decreases_beyond_the_integrator_tolerance_are_violations() {
+        // E falls by 1e-3 per step on a unit-norm state with a unit gradient:
+        // far beyond rtol = 1e-6, so every step is a violation.
+        let energy = [0.0, -1e-3, -2e-3, -3e-3];
+        let states = [1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0];
+        let options = IntegratorOptions::default();
+        let check = check_energy(&energy, &[1.0; 4], &[0.0; 4], &states, 2, &options, 10.0);
+        assert_eq!((check.steps, check.violations), (3, 3));
+        assert!(!check.is_non_decreasing());
+        assert!((check.largest_decrease - 1e-3).abs() < 1e-15);
+        // Decreases within the tolerance are not violations.
+        let energy = [0.0, -1e-12, -2e-12];
+        let check = check_energy(
+            &energy,
+            &[1.0; 3],
+            &[0.0; 3],
+            &states[..6],
+            2,
+            &options,
+            10.0,
+        );
+        assert_eq!(check.violations, 0);
+        assert!(check.is_non_decreasing());
+    }
+}

@@ -233,11 +233,11 @@ mod tests {
 
     #[test]
     fn an_infeasible_joint_step_is_not_reported_usable() {
-        // A metric linear in q is outside the reduced (constant) SOS tables,
+        // K₀₀ = 1 + 0.4 q² is outside the reduced (constant) SOS tables,
         // and the trust region keeps the step within 0.1 of it: infeasible.
         let data = reference_data(30, 9);
         let mut metric = identity_metric::<Quadratic2d>(1.0);
-        metric[1] += 0.4;
+        metric[3] += 0.4;
         let entropy = Quadratic2d::REFERENCE_ENTROPY.unwrap().to_vec();
         let model = Model::<Quadratic2d>::new(entropy, metric).unwrap();
         let step =

@@ -1,0 +1,368 @@
+//! Certificates that a metric is positive semidefinite for every state, the
+//! condition under which the free energy never decreases.
+//!
+//! The metric's sparsity splits K(x) into independent diagonal blocks (the
+//! connected components of its non-zero entries). A constant block is PSD
+//! iff its smallest eigenvalue is ≥ 0. A state-dependent block is certified
+//! by a sum-of-squares Gram matrix: K_C(x) = Z(x)ᵀ Q Z(x) with Q ⪰ 0 over
+//! the monomials of half the block's degree in the variables it depends on
+//! (a certificate in fewer variables is no loss: evaluating any certificate
+//! at zero in the absent variables gives one). The Gram matrix is found by
+//! the solver layer as the semidefinite program
+//!
+//! ```text
+//! min |s|   s.t.   T(Q) = θ_C,   Q + s·I ⪰ 0,
+//! ```
+//!
+//! which is strictly feasible for any θ_C the basis can represent: its optimum
+//! is 0 exactly when a certificate exists, and otherwise measures how far
+//! from one the metric is. When no certificate is found, states are probed
+//! for a negative eigenvalue so that the error can name one.
+
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::error::{Error, Result};
+use crate::solve::svec::{svec_diagonal, svec_index, svec_len, SQRT_2};
+use crate::solve::{solve_l1, Cone, L1Problem, Regression, SolverSettings};
+use crate::system::{metric_pair_index, MetriplecticSystem};
+
+/// Relative tolerance of a constant block's smallest eigenvalue: rounding
+/// in a metric search's Gram matrix is ~1e-16 of its scale.
+const EIGENVALUE_TOLERANCE: f64 = 1e-10;
+/// Relative tolerance of the certificate program's optimum |s|, at the
+/// interior-point method's accuracy.
+const CERTIFICATE_TOLERANCE: f64 = 1e-8;
+/// Largest Gram matrix side the certificate program is set up for.
+const MAX_GRAM_SIDE: usize = 64;
+
+/// Checks that the metric with coefficients `theta` is positive
+/// semidefinite for every state; `what` names it in errors.
+pub(crate) fn check_metric<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<()> {
+    for block in blocks::<S>(theta) {
+        let scale = block_scale::<S>(theta, &block);
+        if is_constant::<S>(theta, &block) {
+            check_constant_block::<S>(what, theta, &block)?;
+        } else if let Err(reason) = certify_block::<S>(theta, &block, scale) {
+            return Err(witness::<S>(what, theta, &block, scale).unwrap_or(
+                Error::MetricNotCertified {
+                    what: what.to_owned(),
+                    reason,
+                },
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The coefficients θ of entry (j, k).
+fn entry<S: MetriplecticSystem>(theta: &[f64], j: usize, k: usize) -> &[f64] {
+    let m = S::METRIC_EXPONENTS.len();
+    let pair = metric_pair_index(S::DIM, j, k);
+    &theta[pair * m..(pair + 1) * m]
+}
+
+/// The state indices of each diagonal block: connected components of the
+/// graph with an edge j–k for every non-zero entry K_jk.
+fn blocks<S: MetriplecticSystem>(theta: &[f64]) -> Vec<Vec<usize>> {
+    let n = S::DIM;
+    let mut component: Vec<usize> = (0..n).collect();
+    fn root(component: &mut [usize], mut i: usize) -> usize {
+        while component[i] != i {
+            component[i] = component[component[i]];
+            i = component[i];
+        }
+        i
+    }
+    for j in 0..n {
+        for k in j + 1..n {
+            if entry::<S>(theta, j, k).iter().any(|&c| c != 0.0) {
+                let (a, b) = (root(&mut component, j), root(&mut component, k));
+                component[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    let mut roots: Vec<usize> = Vec::new();
+    for i in 0..n {
+        let r = root(&mut component, i);
+        match roots.iter().position(|&x| x == r) {
+            Some(b) => blocks[b].push(i),
+            None => {
+                roots.push(r);
+                blocks.push(vec![i]);
+            }
+        }
+    }
+    blocks
+}
+
+/// The pairs (j ≤ k) of a block.
+fn block_pairs(block: &[usize]) -> impl Iterator<Item = (usize, usize, usize, usize)> + '_ {
+    block.iter().enumerate().flat_map(move |(a, &j)| {
+        block[a..]
+            .iter()
+            .enumerate()
+            .map(move |(offset, &k)| (a, a + offset, j, k))
+    })
+}
+
+fn block_scale<S: MetriplecticSystem>(theta: &[f64], block: &[usize]) -> f64 {
+    block_pairs(block)
+        .flat_map(|(_, _, j, k)| entry::<S>(theta, j, k).iter())
+        .fold(0.0_f64, |m, c| m.max(c.abs()))
+}
+
+/// Whether every entry of the block has only a constant term (the metric
+/// basis starts with the constant monomial).
+fn is_constant<S: MetriplecticSystem>(theta: &[f64], block: &[usize]) -> bool {
+    block_pairs(block).all(|(_, _, j, k)| entry::<S>(theta, j, k)[1..].iter().all(|&c| c == 0.0))
+}
+
+/// The block's constant matrix (local indices).
+fn constant_block<S: MetriplecticSystem>(theta: &[f64], block: &[usize]) -> DMatrix<f64> {
+    let size = block.len();
+    let mut k0 = DMatrix::zeros(size, size);
+    for (a, b, j, k) in block_pairs(block) {
+        let value = entry::<S>(theta, j, k)[0];
+        k0[(a, b)] = value;
+        k0[(b, a)] = value;
+    }
+    k0
+}
+
+/// The smallest eigenvalue of a symmetric matrix and its eigenvector.
+fn smallest_eigen(matrix: DMatrix<f64>) -> (f64, Vec<f64>) {
+    let eigen = matrix.symmetric_eigen();
+    let (index, &value) = eigen
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .unwrap_or((0, &0.0));
+    let vector = if eigen.eigenvectors.ncols() > index {
+        eigen.eigenvectors.column(index).iter().copied().collect()
+    } else {
+        Vec::new()
+    };
+    (value, vector)
+}
+
+/// The block's eigenvector as a full n-vector.
+fn embed(n: usize, block: &[usize], local: &[f64]) -> Vec<f64> {
+    let mut full = vec![0.0; n];
+    for (&i, &v) in block.iter().zip(local) {
+        full[i] = v;
+    }
+    full
+}
+
+fn check_constant_block<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    block: &[usize],
+) -> Result<()> {
+    let k0 = constant_block::<S>(theta, block);
+    let spread = k0.amax();
+    let (eigenvalue, direction) = smallest_eigen(k0);
+    if eigenvalue < -EIGENVALUE_TOLERANCE * spread {
+        return Err(Error::MetricNotPositive {
+            what: what.to_owned(),
+            eigenvalue,
+            direction: embed(S::DIM, block, &direction),
+            state: None,
+        });
+    }
+    Ok(())
+}
+
+/// Finds a Gram certificate of a state-dependent block, or says why not.
+fn certify_block<S: MetriplecticSystem>(
+    theta: &[f64],
+    block: &[usize],
+    scale: f64,
+) -> std::result::Result<(), String> {
+    let exponents = S::METRIC_EXPONENTS;
+    let degree_of = |e: &[u32]| e.iter().sum::<u32>();
+    // The variables and the degree the block's entries use.
+    let mut used = vec![false; S::DIM];
+    let mut degree = 0;
+    for (_, _, j, k) in block_pairs(block) {
+        for (c, e) in entry::<S>(theta, j, k).iter().zip(exponents) {
+            if *c != 0.0 {
+                degree = degree.max(degree_of(e));
+                e.iter().enumerate().for_each(|(v, &p)| used[v] |= p > 0);
+            }
+        }
+    }
+    if degree % 2 == 1 {
+        return Err(format!(
+            "an entry has odd degree {degree}, and a matrix polynomial of odd degree cannot be \
+             positive semidefinite everywhere"
+        ));
+    }
+    let half: Vec<&[u32]> = exponents
+        .iter()
+        .copied()
+        .filter(|e| 2 * degree_of(e) <= degree && e.iter().zip(&used).all(|(&p, &u)| p == 0 || u))
+        .collect();
+    let size = block.len() * half.len();
+    if size > MAX_GRAM_SIDE {
+        return Err(format!(
+            "its sum-of-squares certificate needs a {size}×{size} Gram matrix, more than the \
+             {MAX_GRAM_SIDE} supported"
+        ));
+    }
+    let position = |e: &[u32]| exponents.iter().position(|x| *x == e);
+
+    // Variables [s | svec Q]; the objective |s| is the one regression row.
+    let svec_size = svec_len(size);
+    let objective = Regression {
+        width: 1,
+        rows: vec![1.0],
+        target: vec![0.0],
+    };
+    let mut problem = L1Problem::new(objective, svec_size);
+    let basis = exponents.len();
+    let pairs: Vec<_> = block_pairs(block).collect();
+    let mut entries = Vec::new();
+    let mut rhs = vec![0.0; pairs.len() * basis];
+    let mut sum = vec![0_u32; S::DIM];
+    for (row_block, &(a, b, j, k)) in pairs.iter().enumerate() {
+        let row = |alpha: usize| row_block * basis + alpha;
+        rhs[row_block * basis..(row_block + 1) * basis].copy_from_slice(entry::<S>(theta, j, k));
+        for (beta, e_beta) in half.iter().enumerate() {
+            for (gamma, e_gamma) in half.iter().enumerate() {
+                sum.iter_mut()
+                    .zip(e_beta.iter().zip(e_gamma.iter()))
+                    .for_each(|(s, (x, y))| *s = x + y);
+                let Some(alpha) = position(&sum) else {
+                    continue;
+                };
+                let (p, q) = (a * half.len() + beta, b * half.len() + gamma);
+                // svec stores √2·Q_pq off the diagonal.
+                let weight = if p == q { 1.0 } else { 1.0 / SQRT_2 };
+                entries.push((row(alpha), 1 + svec_index(p, q), weight));
+            }
+        }
+    }
+    let built = problem
+        .constrain(Cone::Zero(rhs.len()), entries, rhs)
+        .and_then(|_| {
+            let mut psd: Vec<(usize, usize, f64)> =
+                (0..svec_size).map(|i| (i, 1 + i, -1.0)).collect();
+            psd.extend((0..size).map(|p| (svec_diagonal(p), 0, -1.0)));
+            problem.constrain(Cone::Psd(size), psd, vec![0.0; svec_size])
+        });
+    if let Err(error) = built {
+        return Err(format!(
+            "the certificate program could not be built: {error}"
+        ));
+    }
+    let solution = solve_l1(&problem, &SolverSettings::default())
+        .map_err(|error| format!("the certificate program failed: {error}"))?;
+    let s = solution.coefficients()[0];
+    if solution.status.is_usable() && s <= CERTIFICATE_TOLERANCE * scale.max(f64::MIN_POSITIVE) {
+        Ok(())
+    } else {
+        Err(format!(
+            "the best sum-of-squares Gram matrix over {} monomials needs a shift s = {s:e} to be \
+             positive semidefinite (solver status {})",
+            half.len(),
+            solution.status
+        ))
+    }
+}
+
+/// A state where the block has a negative eigenvalue, probed on spheres of
+/// growing radius, as the error to report; `None` if none was found.
+fn witness<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    block: &[usize],
+    scale: f64,
+) -> Option<Error> {
+    let n = S::DIM;
+    let mut rng = ChaCha8Rng::seed_from_u64(0x5eed);
+    let mut metric = vec![0.0; n * n];
+    let mut worst: Option<(f64, Vec<f64>, Vec<f64>)> = None;
+    for radius in [0.5, 1.0, 2.0, 5.0, 10.0, 100.0] {
+        for _ in 0..200 {
+            let x: Vec<f64> = (0..n)
+                .map(|_| radius * rng.random_range(-1.0..1.0))
+                .collect();
+            S::metric_value(&x, theta, &mut metric);
+            let local = DMatrix::from_fn(block.len(), block.len(), |a, b| {
+                metric[block[a] * n + block[b]]
+            });
+            let (eigenvalue, direction) = smallest_eigen(local);
+            if eigenvalue < -EIGENVALUE_TOLERANCE * scale
+                && worst.as_ref().is_none_or(|(w, _, _)| eigenvalue < *w)
+            {
+                worst = Some((eigenvalue, direction, x));
+            }
+        }
+        if worst.is_some() {
+            break;
+        }
+    }
+    worst.map(|(eigenvalue, direction, x)| Error::MetricNotPositive {
+        what: what.to_owned(),
+        eigenvalue,
+        direction: embed(n, block, &direction),
+        state: Some(x),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_system::Quadratic2d;
+
+    fn theta(entries: &[(usize, f64)]) -> Vec<f64> {
+        let mut theta = vec![0.0; Quadratic2d::metric_coefficient_count()];
+        for &(i, v) in entries {
+            theta[i] = v;
+        }
+        theta
+    }
+
+    // Pairs (0,0), (0,1), (1,1) at offsets 0, 6, 12; monomials 1, q, p, q², qp, p².
+
+    #[test]
+    fn diagonal_blocks_are_separate() {
+        let t = theta(&[(0, 1.0), (12, 1.0)]);
+        assert_eq!(blocks::<Quadratic2d>(&t), vec![vec![0], vec![1]]);
+        let t = theta(&[(0, 1.0), (6 + 1, 0.5), (12, 1.0)]);
+        assert_eq!(blocks::<Quadratic2d>(&t), vec![vec![0, 1]]);
+    }
+
+    #[test]
+    fn sum_of_squares_metrics_are_certified() {
+        // [[1 + q², q p], [q p, 1 + p²]] = I + (q, p)(q, p)ᵀ.
+        let t = theta(&[(0, 1.0), (3, 1.0), (6 + 4, 1.0), (12, 1.0), (12 + 5, 1.0)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
+        // [[q², 0], [0, 0]]: PSD on a face (no strictly feasible Gram matrix).
+        let t = theta(&[(3, 1.0)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
+    }
+
+    #[test]
+    fn indefinite_metrics_are_refused() {
+        // [[1, 2q], [2q, 1]] has eigenvalue 1 − 2|q| < 0 for |q| > ½.
+        let t = theta(&[(0, 1.0), (6 + 1, 2.0), (12, 1.0)]);
+        let err = check_metric::<Quadratic2d>("test", &t).unwrap_err();
+        assert!(
+            matches!(err, Error::MetricNotPositive { state: Some(ref x), eigenvalue, .. }
+                if eigenvalue < 0.0 && x[0].abs() > 0.5),
+            "{err}"
+        );
+        // [[q², 0], [0, −p²]].
+        let t = theta(&[(3, 1.0), (12 + 5, -1.0)]);
+        assert!(matches!(
+            check_metric::<Quadratic2d>("test", &t),
+            Err(Error::MetricNotPositive { .. })
+        ));
+    }
+}

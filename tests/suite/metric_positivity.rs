@@ -1,0 +1,133 @@
+//! The free energy never decreases: a metric K that is not positive
+//! semidefinite is refused wherever it enters — models built, edited,
+//! loaded from files or given as the identification's starting point — with
+//! an error that names the offending eigenvalue and where it occurs.
+
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
+
+use crate::common::{identity_metric, linear2d_data, metric_pair_index, Linear2d};
+
+/// θ of Linear2d with the constant metric `k` (row-major 2×2, symmetric).
+fn constant_metric(k: [f64; 4]) -> Vec<f64> {
+    let basis = Linear2d::METRIC_EXPONENTS.len();
+    let mut theta = vec![0.0; Linear2d::metric_coefficient_count()];
+    for (j, l) in [(0, 0), (0, 1), (1, 1)] {
+        theta[metric_pair_index(2, j, l) * basis] = k[j * 2 + l];
+    }
+    theta
+}
+
+fn reference_entropy() -> Vec<f64> {
+    Linear2d::REFERENCE_ENTROPY.unwrap().to_vec()
+}
+
+#[test]
+fn an_indefinite_constant_metric_is_refused_with_its_eigenvalue() {
+    // K = [[1, 2], [2, 1]] has eigenvalues 3 and −1 (direction (1, −1)/√2).
+    let err = Model::<Linear2d>::new(reference_entropy(), constant_metric([1.0, 2.0, 2.0, 1.0]))
+        .unwrap_err();
+    assert!(
+        matches!(err, Error::MetricNotPositive { eigenvalue, .. } if (eigenvalue + 1.0).abs() < 1e-12),
+        "{err}"
+    );
+    let message = err.to_string();
+    assert!(message.contains("-1"), "{message}");
+    let err =
+        Model::<Linear2d>::new(reference_entropy(), identity_metric::<Linear2d>(-1.0)).unwrap_err();
+    assert!(matches!(err, Error::MetricNotPositive { .. }), "{err}");
+    // A semidefinite metric (one zero eigenvalue) is fine.
+    Model::<Linear2d>::new(reference_entropy(), constant_metric([1.0, 1.0, 1.0, 1.0])).unwrap();
+}
+
+#[test]
+fn editing_a_model_cannot_make_its_metric_indefinite() {
+    let mut model = Model::<Linear2d>::reference().unwrap();
+    let before = model.clone();
+    let err = model
+        .set_metric_coefficients(constant_metric([-5.0, 0.0, 0.0, 1.0]))
+        .unwrap_err();
+    assert!(matches!(err, Error::MetricNotPositive { .. }), "{err}");
+    assert_eq!(
+        model, before,
+        "a refused edit must leave the model unchanged"
+    );
+}
+
+#[test]
+fn a_state_dependent_metric_is_certified_or_refused_with_a_witness() {
+    let basis = Linear2d::METRIC_EXPONENTS.len();
+    let q = 1; // index of the monomial q in the metric basis
+    let q2 = 3; // q²
+                // K = [[1 + q², 0], [0, 1]] is positive definite everywhere.
+    let mut theta = constant_metric([1.0, 0.0, 0.0, 1.0]);
+    theta[q2] = 1.0;
+    Model::<Linear2d>::new(reference_entropy(), theta).unwrap();
+    // K = [[q, 0], [0, 1]] is indefinite wherever q < 0.
+    let mut theta = constant_metric([0.0, 0.0, 0.0, 1.0]);
+    theta[q] = 1.0;
+    let err = Model::<Linear2d>::new(reference_entropy(), theta).unwrap_err();
+    match &err {
+        Error::MetricNotPositive {
+            eigenvalue,
+            state: Some(x),
+            ..
+        } => {
+            assert!(*eigenvalue < 0.0 && x[0] < 0.0, "{err}");
+        }
+        other => panic!("expected a witness state, got {other}"),
+    }
+    assert_eq!(basis, 6);
+}
+
+#[test]
+fn a_model_file_with_an_indefinite_metric_does_not_load() {
+    let dir = std::env::temp_dir().join(format!("metriplectic-psd-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("model.json");
+    let json = Model::<Linear2d>::reference().unwrap().to_json().unwrap();
+    // The first metric coefficient (K₀₀'s constant term) edited from 1 to −5.
+    let value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let mut edited = value.clone();
+    edited["metric"][0] = serde_json::json!(-5.0);
+    std::fs::write(&path, serde_json::to_string_pretty(&edited).unwrap()).unwrap();
+    let err = Model::<Linear2d>::load(&path).unwrap_err();
+    assert!(matches!(err, Error::MetricNotPositive { .. }), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn identification_refuses_an_indefinite_starting_metric() {
+    let data = linear2d_data(40, 3);
+    let config = IdentifyConfig {
+        initial_entropy: Some(reference_entropy()),
+        initial_metric: Some(identity_metric::<Linear2d>(-1.0)),
+        max_iterations: 2,
+        ..IdentifyConfig::default()
+    };
+    let err = identify::<Linear2d>(&data, &config).unwrap_err();
+    assert!(matches!(err, Error::MetricNotPositive { .. }), "{err}");
+}
+
+#[test]
+fn every_model_synthesis_accepts_has_a_non_decreasing_free_energy() {
+    // Synthesis takes a Model, which cannot hold an indefinite metric; the
+    // data it produces from a valid model have dE/dt ≥ 0 at every sample.
+    let model =
+        Model::<Linear2d>::new(reference_entropy(), constant_metric([2.0, 0.5, 0.5, 1.0])).unwrap();
+    let data = synthesize(
+        &model,
+        &SynthesisOptions {
+            trajectories: 3,
+            duration: 0.5,
+            ..SynthesisOptions::new(
+                InitialStates::cube(2, 1.0),
+                SampleTimes::Uniform { interval: 0.05 },
+            )
+        },
+    )
+    .unwrap();
+    for (x, _) in data.train.iter() {
+        assert!(model.free_energy_rate(x).unwrap() >= 0.0);
+    }
+}
