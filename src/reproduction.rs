@@ -22,7 +22,7 @@ use metriplectic_runtime::{
     identify_resume_with_observer, identify_with_observer, simulate, synthesize, CheckpointConfig,
     History, InitialStates, IterationRecord, IterationScheme, L1Formulation, OutputTimes,
     SampleTimes, SearchOptions, Simulation, SimulationOptions, SolveStatus, SolverBackend,
-    SolverSettings, StopReason, SynthesisOptions, SyntheticData, TrustRegion,
+    SolverSettings, StopReason, SynthesisOptions, SyntheticData, TrustRegion, WriteMode,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -573,7 +573,7 @@ fn write_model_and_history<S: MetriplecticSystem>(
     history
         .write_csv(std::io::BufWriter::new(file))
         .map_err(io_error(&path))?;
-    model.save(out.join("model.json"), true)?;
+    model.save(out.join("model.json"), WriteMode::Overwrite)?;
     Ok(())
 }
 

@@ -221,8 +221,8 @@ pub enum DatasetError {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CsvError {
-    /// The input has no header line.
-    #[error("empty input: expected a header line with the columns {expected}")]
+    /// The input has no header line (it is empty or blank).
+    #[error("empty input or blank first line: expected a header line with the columns {expected}")]
     NoHeader {
         /// The columns the system expects.
         expected: String,
@@ -315,6 +315,18 @@ pub enum CsvError {
         name: String,
         /// The cell's text.
         text: String,
+    },
+    /// A header cell is empty (often a trailing comma).
+    #[error("line 1, column {column}: the column has no name (a trailing comma?)")]
+    EmptyColumnName {
+        /// Column number (1-based).
+        column: usize,
+    },
+    /// A quoted cell is never closed: it swallows the line ends after it.
+    #[error("line {line}: a quote (`\"`) opens a cell that is never closed")]
+    UnclosedQuote {
+        /// Line where the unclosed cell starts.
+        line: u64,
     },
     /// A trajectory identifier cell is empty.
     #[error("line {line}, column {column} (`trajectory`): empty trajectory identifier")]

@@ -1,11 +1,12 @@
 //! Whole files: bounded reads, atomic writes (model files, checkpoints),
 //! and whether a write may replace an existing file.
 
-use std::fs::File;
+use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::error::{Error, Result};
+use crate::error::{invalid, Error, Result};
 
 /// Whether a writer may replace an existing file (model files, trajectory
 /// CSV). Default [`CreateNew`](Self::CreateNew): nothing the user has is
@@ -60,25 +61,31 @@ pub(crate) fn read_capped(path: &Path, limit: u64, what: &str) -> Result<String>
     })
 }
 
-/// Replaces `path` with `bytes` atomically: a reader (or a crash) sees
-/// either the old file or the complete new one, never a truncated file.
+/// Writes `bytes` to `path` so that nothing is ever half-written: a reader
+/// (or a crash, or a full disk) sees either the previous file or the
+/// complete new one. [`WriteMode::CreateNew`] refuses an existing file with
+/// [`Error::FileExists`]; [`WriteMode::Overwrite`] replaces it.
 ///
 /// The bytes go to a temporary file in the same directory (same file
-/// system, so the rename is atomic), are flushed to disk, and the temporary
-/// file is renamed over `path`.
-pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+/// system), are flushed to disk, and only then take the name: by an atomic
+/// rename when overwriting, by a hard link (which fails if the name exists)
+/// when creating. On file systems without hard links the new file is
+/// created exclusively and filled, and removed again if writing fails.
+pub(crate) fn write_file(path: &Path, bytes: &[u8], mode: WriteMode) -> Result<()> {
     let io = |path: &Path| {
         let path = path.to_owned();
         move |source| Error::Io { path, source }
     };
-    let name = path.file_name().ok_or_else(|| Error::InvalidArgument {
-        what: "file path".to_owned(),
-        reason: format!("{} does not name a file", path.display()),
-    })?;
-    let mut temporary_name = std::ffi::OsString::from(".");
-    temporary_name.push(name);
-    temporary_name.push(format!(".tmp-{}", std::process::id()));
-    let temporary: PathBuf = path.with_file_name(temporary_name);
+    if path.is_dir() {
+        return Err(invalid(
+            "file path",
+            format!(
+                "{} is a directory; give the name of a file inside it",
+                path.display()
+            ),
+        ));
+    }
+    let temporary = temporary_beside(path)?;
     let written = (|| {
         let mut file = File::create(&temporary)?;
         file.write_all(bytes)?;
@@ -86,14 +93,29 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })();
     if let Err(source) = written {
         let _ = std::fs::remove_file(&temporary);
-        return Err(io(&temporary)(source));
-    }
-    if let Err(source) = std::fs::rename(&temporary, path) {
-        let _ = std::fs::remove_file(&temporary);
         return Err(io(path)(source));
     }
-    // Persist the rename itself (the directory entry); best effort, since
-    // not every platform can open a directory for syncing.
+    let placed = match mode {
+        WriteMode::Overwrite => std::fs::rename(&temporary, path),
+        WriteMode::CreateNew => match std::fs::hard_link(&temporary, path) {
+            Err(error) if error.kind() != std::io::ErrorKind::AlreadyExists => {
+                write_exclusively(path, bytes)
+            }
+            other => other,
+        },
+    };
+    let _ = std::fs::remove_file(&temporary);
+    match placed {
+        Err(source) if source.kind() == std::io::ErrorKind::AlreadyExists => {
+            return Err(Error::FileExists {
+                path: path.to_owned(),
+            })
+        }
+        Err(source) => return Err(io(path)(source)),
+        Ok(()) => {}
+    }
+    // Persist the new name (the directory entry); best effort, since not
+    // every platform can open a directory for syncing.
     if let Some(directory) = path.parent() {
         let directory = if directory.as_os_str().is_empty() {
             Path::new(".")
@@ -105,6 +127,37 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A fresh temporary name next to `path`: hidden, with the process id and
+/// a per-process counter so that concurrent writers never share one.
+fn temporary_beside(path: &Path) -> Result<PathBuf> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let name = path.file_name().ok_or_else(|| {
+        invalid(
+            "file path",
+            format!("{} does not name a file", path.display()),
+        )
+    })?;
+    let mut temporary_name = std::ffi::OsString::from(".");
+    temporary_name.push(name);
+    temporary_name.push(format!(
+        ".tmp-{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    Ok(path.with_file_name(temporary_name))
+}
+
+/// Creates `path` (failing if it exists) and fills it; removes it again if
+/// filling fails, so no partial file is left under the name.
+fn write_exclusively(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut file = OpenOptions::new().write(true).create_new(true).open(path)?;
+    let filled = file.write_all(bytes).and_then(|()| file.sync_all());
+    if filled.is_err() {
+        let _ = std::fs::remove_file(path);
+    }
+    filled
 }
 
 #[cfg(test)]
@@ -124,8 +177,12 @@ mod tests {
     fn atomic_write_replaces_and_leaves_no_temporary() {
         let dir = scratch("atomic");
         let path = dir.join("state.json");
-        write_atomic(&path, b"first").unwrap();
-        write_atomic(&path, b"second").unwrap();
+        write_file(&path, b"first", WriteMode::CreateNew).unwrap();
+        assert!(matches!(
+            write_file(&path, b"other", WriteMode::CreateNew),
+            Err(Error::FileExists { .. })
+        ));
+        write_file(&path, b"second", WriteMode::Overwrite).unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "second");
         let names: Vec<_> = std::fs::read_dir(&dir)
             .unwrap()

@@ -535,3 +535,95 @@ fn simulated_trajectories_round_trip_through_csv() {
         "{err}"
     );
 }
+
+/// Errors name the physical line whatever the line endings, and blank lines
+/// before a bad row do not move it.
+#[test]
+fn line_numbers_are_right_for_every_line_ending_and_blank_lines() {
+    for (ending, label) in [("\n", "LF"), ("\r\n", "CRLF"), ("\r", "CR")] {
+        let text = ["t,q,p", "0,1,2", "0.1,oops,2", ""].join(ending);
+        let (err, _) = csv_error(&text);
+        assert!(
+            matches!(
+                err,
+                CsvError::NotANumber {
+                    line: 3,
+                    column: 2,
+                    ..
+                }
+            ),
+            "{label}: {err:?}"
+        );
+        // An error in the first data row is on line 2, not the header's.
+        let text = ["t,q,p", "0,x,2", ""].join(ending);
+        let (err, _) = csv_error(&text);
+        assert!(
+            matches!(err, CsvError::NotANumber { line: 2, .. }),
+            "{label}: {err:?}"
+        );
+        // Two blank lines, then the bad row on line 5.
+        let text = ["t,q,p", "0,1,2", "", "", "0.1,1,bad", ""].join(ending);
+        let (err, _) = csv_error(&text);
+        assert!(
+            matches!(
+                err,
+                CsvError::NotANumber {
+                    line: 5,
+                    column: 3,
+                    ..
+                }
+            ),
+            "{label}: {err:?}"
+        );
+        // Times out of order on line 4 after a blank line.
+        let text = ["t,q,p", "0,1,2", "", "0,1,2", ""].join(ending);
+        let (err, _) = csv_error(&text);
+        assert!(
+            matches!(
+                err,
+                CsvError::NonIncreasingTime {
+                    line: 4,
+                    previous_line: 2,
+                    ..
+                }
+            ),
+            "{label}: {err:?}"
+        );
+    }
+}
+
+#[test]
+fn a_huge_bad_cell_is_not_echoed_whole() {
+    let cell = "x".repeat(1 << 20);
+    let text = format!("t,q,p\n0,{cell},2\n");
+    let (_, message) = csv_error(&text);
+    assert!(message.len() < 400, "{} bytes", message.len());
+    assert!(message.contains("1048576 bytes"), "{message}");
+}
+
+#[test]
+fn an_unclosed_quote_is_named() {
+    let (err, message) = csv_error("t,q,p\n0,1,2\n0.1,\"1,2\n0.2,3,4\n");
+    assert!(
+        matches!(err, CsvError::UnclosedQuote { line: 3, .. }),
+        "{err:?}"
+    );
+    assert!(message.contains("quote"), "{message}");
+}
+
+#[test]
+fn blank_files_and_trailing_commas_are_named() {
+    for blank in ["", "   \n", "\n\n"] {
+        let (err, _) = csv_error(blank);
+        assert!(
+            matches!(err, CsvError::NoHeader { .. }),
+            "{blank:?}: {err:?}"
+        );
+    }
+    let (err, message) = csv_error("t,q,p,\n0,1,2,\n");
+    assert!(
+        matches!(err, CsvError::EmptyColumnName { column: 4 }),
+        "{err:?}"
+    );
+    assert!(message.contains("trailing comma"), "{message}");
+}

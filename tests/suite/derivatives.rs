@@ -203,3 +203,22 @@ fn estimated_derivatives_of_a_simulated_trajectory_match_the_vector_field() {
         assert_eq!(estimated.to_dataset().unwrap().len(), sim.trajectory.len());
     }
 }
+
+/// Times so close that the stencil weights overflow: the error blames the
+/// spacing (and where it is), instead of returning NaN derivatives.
+#[test]
+fn derivatives_that_would_be_nan_blame_the_time_spacing() {
+    let times = vec![0.0, 1e-310, 1.0, 2.0, 3.0, 4.0];
+    let values = vec![0.0, 0.0, 1.0, 2.0, 3.0, 4.0];
+    let err = differentiate(
+        &times,
+        &values,
+        &DerivativeMethod::FiniteDifference { order: 2 },
+    )
+    .unwrap_err();
+    let message = err.to_string();
+    assert!(
+        message.contains("time spacing") && message.contains("samples 0..=2"),
+        "{message}"
+    );
+}

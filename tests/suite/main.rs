@@ -30,6 +30,7 @@ mod hostile_input;
 mod identification;
 mod metric_positivity;
 mod metric_search;
+mod model_files;
 mod plot;
 mod reproduction;
 mod reproduction_interrupt;

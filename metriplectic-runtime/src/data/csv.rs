@@ -1,13 +1,13 @@
 //! Trajectories as CSV files: measured or simulated states over time.
 
 use std::collections::HashMap;
-use std::fs::{File, OpenOptions};
-use std::io::{BufWriter, Read, Write};
+use std::fs::File;
+use std::io::{Read, Write};
 use std::path::Path;
 
 use super::Trajectory;
 use crate::error::{quoted, CsvError, Error, Result};
-use crate::io::WriteMode;
+use crate::io::{write_file, WriteMode};
 use crate::system::MetriplecticSystem;
 
 /// Name of the time column.
@@ -71,23 +71,34 @@ pub fn read_trajectories<S: MetriplecticSystem>(path: impl AsRef<Path>) -> Resul
 /// let err = read_trajectories_from("t,q\n0,1\n".as_bytes(), &["q", "p"]).unwrap_err();
 /// assert!(err.to_string().contains("missing column(s) `p`"));
 /// ```
-pub fn read_trajectories_from(reader: impl Read, names: &[&str]) -> Result<Vec<Trajectory>> {
+pub fn read_trajectories_from(mut reader: impl Read, names: &[&str]) -> Result<Vec<Trajectory>> {
     check_names(names)?;
+    // Read whole so that errors can name physical lines whatever the line
+    // endings (the CSV parser counts only `\n` and reports a record after
+    // blank lines at the first blank line).
+    let mut bytes = Vec::new();
+    reader.read_to_end(&mut bytes).map_err(|source| Error::Io {
+        path: "<reader>".into(),
+        source,
+    })?;
+    let lines = LineIndex::new(&bytes);
+    let malformed = |error: csv::Error| malformed(&lines, error);
     let mut csv = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
         .trim(csv::Trim::All)
-        .from_reader(reader);
+        .from_reader(bytes.as_slice());
     let mut records = csv.records();
     let header = match records.next() {
-        None => {
-            return Err(CsvError::NoHeader {
-                expected: expected_columns(names),
-            }
-            .into())
-        }
         Some(record) => record.map_err(malformed)?,
+        None => csv::StringRecord::new(),
     };
+    if header.iter().all(str::is_empty) {
+        return Err(CsvError::NoHeader {
+            expected: expected_columns(names),
+        }
+        .into());
+    }
     let layout = Layout::from_header(&header, names)?;
     let n = names.len();
 
@@ -97,7 +108,12 @@ pub fn read_trajectories_from(reader: impl Read, names: &[&str]) -> Result<Vec<T
     let mut derivative = vec![0.0; n];
     for record in records {
         let record = record.map_err(malformed)?;
-        let line = record.position().map_or(0, |p| p.line());
+        let line = record.position().map_or(0, |p| lines.line_of(p.byte()));
+        if record.iter().any(|cell| cell.contains(['\n', '\r'])) {
+            // No cell of this format spans lines: a quote opened on this
+            // line was never closed.
+            return Err(CsvError::UnclosedQuote { line }.into());
+        }
         if record.len() != header.len() {
             return Err(CsvError::FieldCount {
                 line,
@@ -176,7 +192,8 @@ pub fn read_trajectories_from(reader: impl Read, names: &[&str]) -> Result<Vec<T
 }
 
 /// Writes trajectories to a CSV file; refuses to replace an existing file
-/// unless `mode` is [`WriteMode::Overwrite`](crate::WriteMode::Overwrite).
+/// unless `mode` is [`WriteMode::Overwrite`](crate::WriteMode::Overwrite). The
+/// write is atomic, like [`Model::save`](crate::Model::save).
 ///
 /// All trajectories must have the same state names and either all or none
 /// must carry derivatives. A `trajectory` column is written when there is
@@ -188,40 +205,16 @@ pub fn write_trajectories(
     mode: WriteMode,
 ) -> Result<()> {
     let path = path.as_ref();
-    // Check before touching the file system, so a bad call leaves no file behind.
-    check_writable(trajectories)?;
-    let file = match mode {
-        WriteMode::CreateNew => OpenOptions::new().write(true).create_new(true).open(path),
-        WriteMode::Overwrite => File::create(path),
-    }
-    .map_err(|source| {
-        if source.kind() == std::io::ErrorKind::AlreadyExists {
-            Error::FileExists {
-                path: path.to_owned(),
-            }
-        } else {
-            Error::Io {
-                path: path.to_owned(),
-                source,
-            }
-        }
-    })?;
-    let mut out = BufWriter::new(file);
-    write_trajectories_to(&mut out, trajectories)
-        .and_then(|()| out.flush().map_err(|source| writer_error(source.into())))
-        .map_err(|error| match error {
-            Error::Io { source, .. } => Error::Io {
-                path: path.to_owned(),
-                source,
-            },
-            other => other,
-        })
+    // Written in memory first: the file appears complete or not at all.
+    let mut text = Vec::new();
+    write_trajectories_to(&mut text, trajectories)?;
+    write_file(path, &text, mode)
 }
 
 /// Writes trajectories as CSV text to any writer (see [`write_trajectories`]).
 ///
 /// ```
-/// use metriplectic_runtime::{csv_io::write_trajectories_to, Trajectory};
+/// use metriplectic_runtime::{write_trajectories_to, Trajectory};
 ///
 /// let traj = Trajectory::new(vec!["x".into()], vec![0.0, 0.1], vec![1.0, 0.9], None).unwrap();
 /// let mut text = Vec::new();
@@ -337,6 +330,9 @@ impl Layout {
         let expected = expected_columns(names);
         let mut positions: HashMap<&str, usize> = HashMap::new();
         for (col, name) in header.iter().enumerate() {
+            if name.is_empty() {
+                return Err(CsvError::EmptyColumnName { column: col + 1 }.into());
+            }
             if let Some(&first) = positions.get(name) {
                 return Err(CsvError::DuplicateColumn {
                     name: name.to_owned(),
@@ -444,6 +440,16 @@ impl Builder {
     }
 }
 
+/// A cell's text as errors show it: at most 40 characters, and the size of
+/// the rest, so that a corrupt 50 MB cell does not make a 50 MB message.
+fn shortened(text: &str) -> String {
+    const SHOWN: usize = 40;
+    match text.char_indices().nth(SHOWN) {
+        None => text.to_owned(),
+        Some((cut, _)) => format!("{}… ({} bytes in all)", &text[..cut], text.len()),
+    }
+}
+
 fn parse_cell(text: &str, line: u64, col: usize, name: &str) -> Result<f64> {
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
@@ -451,21 +457,60 @@ fn parse_cell(text: &str, line: u64, col: usize, name: &str) -> Result<f64> {
             line,
             column: col + 1,
             name: name.to_owned(),
-            text: text.to_owned(),
+            text: shortened(text),
         }
         .into()),
         Err(_) => Err(CsvError::NotANumber {
             line,
             column: col + 1,
             name: name.to_owned(),
-            text: text.to_owned(),
+            text: shortened(text),
         }
         .into()),
     }
 }
 
-fn malformed(error: csv::Error) -> Error {
-    let line = error.position().map_or(0, |p| p.line());
+/// Byte offsets where lines start; a line ends at `\n`, `\r\n` or a lone `\r`.
+struct LineIndex<'a> {
+    bytes: &'a [u8],
+    starts: Vec<usize>,
+}
+
+impl<'a> LineIndex<'a> {
+    fn new(bytes: &'a [u8]) -> Self {
+        let mut starts = vec![0];
+        let mut i = 0;
+        while i < bytes.len() {
+            match bytes[i] {
+                b'\r' if bytes.get(i + 1) == Some(&b'\n') => {
+                    starts.push(i + 2);
+                    i += 2;
+                }
+                b'\r' | b'\n' => {
+                    starts.push(i + 1);
+                    i += 1;
+                }
+                _ => i += 1,
+            }
+        }
+        Self { bytes, starts }
+    }
+
+    /// The 1-based line of the record that the parser says starts at byte
+    /// `offset` (its offset may point at blank lines before it).
+    fn line_of(&self, offset: u64) -> u64 {
+        let mut offset = usize::try_from(offset)
+            .unwrap_or(usize::MAX)
+            .min(self.bytes.len());
+        while offset < self.bytes.len() && matches!(self.bytes[offset], b'\r' | b'\n') {
+            offset += 1;
+        }
+        self.starts.partition_point(|&start| start <= offset) as u64
+    }
+}
+
+fn malformed(lines: &LineIndex<'_>, error: csv::Error) -> Error {
+    let line = error.position().map_or(0, |p| lines.line_of(p.byte()));
     let message = match error.kind() {
         csv::ErrorKind::Utf8 { err, .. } => format!("invalid UTF-8 in field {}", err.field() + 1),
         _ => error.to_string(),

@@ -197,6 +197,24 @@ fn stencil(times: &[f64], i: usize, method: &DerivativeMethod) -> Result<(usize,
             least_squares_first_derivative(times[i], window, degree)?
         }
     };
+    if weights.iter().any(|w| !w.is_finite()) {
+        // The weights scale like 1/spacing: a spacing near zero (or spread
+        // over many orders of magnitude) overflows them.
+        let smallest = window
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min);
+        return Err(invalid(
+            "time spacing",
+            format!(
+                "samples {start}..={} (t = {:e} … {:e}) are {smallest:e} apart at the closest, too \
+                 close to estimate a derivative in floating point; drop or merge near-duplicate times",
+                start + window.len() - 1,
+                window[0],
+                window[window.len() - 1]
+            ),
+        ));
+    }
     Ok((start, weights))
 }
 

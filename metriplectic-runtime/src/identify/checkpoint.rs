@@ -25,7 +25,7 @@ use super::history::{History, StopReason};
 use super::state::RunState;
 use crate::data::Dataset;
 use crate::error::{Error, Result};
-use crate::io::{read_capped, write_atomic};
+use crate::io::{read_capped, write_file, WriteMode};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -179,7 +179,7 @@ pub(crate) fn save<S: MetriplecticSystem>(
         context: Some(path.display().to_string()),
         source,
     })?;
-    write_atomic(path, json.as_bytes())
+    write_file(path, json.as_bytes(), WriteMode::Overwrite)
 }
 
 /// Loads the checkpoint at `path` and checks that it belongs to a run of

@@ -5,15 +5,13 @@
 //! or into the same name with different bases — fails with
 //! [`Error::WrongSystem`] instead of silently misreading the coefficients.
 
-use std::fs::OpenOptions;
-use std::io::Write;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use super::Model;
 use crate::error::{Error, Result};
-use crate::io::read_capped;
+use crate::io::{read_capped, write_file, WriteMode};
 use crate::system::MetriplecticSystem;
 
 /// Format tag written into every model file.
@@ -116,6 +114,8 @@ impl<S: MetriplecticSystem> Model<S> {
                 ),
             });
         }
+        // Editors on some platforms prepend a byte-order mark; JSON has none.
+        let json = json.strip_prefix('\u{feff}').unwrap_or(json);
         let file: ModelFile = serde_json::from_str(json).map_err(|source| Error::Json {
             context: Some("model file".to_owned()),
             source,
@@ -152,34 +152,15 @@ impl<S: MetriplecticSystem> Model<S> {
         Self::new(file.entropy, file.metric)
     }
 
-    /// Writes the model to `path` as JSON. An existing file is replaced only
-    /// if `overwrite` is `true`; otherwise the result is [`Error::FileExists`].
-    pub fn save(&self, path: impl AsRef<Path>, overwrite: bool) -> Result<()> {
-        let path = path.as_ref();
-        let json = self.to_json()?;
-        let mut options = OpenOptions::new();
-        options.write(true);
-        if overwrite {
-            options.create(true).truncate(true);
-        } else {
-            // Atomic with respect to the existence check.
-            options.create_new(true);
-        }
-        let io = |source| Error::Io {
-            path: path.to_owned(),
-            source,
-        };
-        let mut file = options.open(path).map_err(|source: std::io::Error| {
-            if source.kind() == std::io::ErrorKind::AlreadyExists {
-                Error::FileExists {
-                    path: path.to_owned(),
-                }
-            } else {
-                io(source)
-            }
-        })?;
-        file.write_all(json.as_bytes()).map_err(io)?;
-        file.write_all(b"\n").map_err(io)
+    /// Writes the model to `path` as JSON. With [`WriteMode::CreateNew`]
+    /// an existing file is refused ([`Error::FileExists`]); with
+    /// [`WriteMode::Overwrite`] it is replaced. Either way the write is
+    /// atomic: if it fails (a full disk, a crash) the previous file is left
+    /// as it was and no partial file appears.
+    pub fn save(&self, path: impl AsRef<Path>, mode: WriteMode) -> Result<()> {
+        let mut json = self.to_json()?;
+        json.push('\n');
+        write_file(path.as_ref(), json.as_bytes(), mode)
     }
 
     /// Reads a model written by [`Model::save`].
@@ -236,13 +217,13 @@ mod tests {
         let path = dir.join("model.json");
         let _ = std::fs::remove_file(&path);
         let model = Model::<Quadratic2d>::reference().unwrap();
-        model.save(&path, false).unwrap();
+        model.save(&path, WriteMode::CreateNew).unwrap();
         assert!(matches!(
-            model.save(&path, false),
+            model.save(&path, WriteMode::CreateNew),
             Err(Error::FileExists { .. })
         ));
         let other = Model::<Quadratic2d>::with_identity_metric(vec![1.0; 5]).unwrap();
-        other.save(&path, true).unwrap();
+        other.save(&path, WriteMode::Overwrite).unwrap();
         assert_eq!(Model::<Quadratic2d>::load(&path).unwrap(), other);
         std::fs::remove_dir_all(&dir).unwrap();
     }
