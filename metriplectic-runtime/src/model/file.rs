@@ -186,6 +186,7 @@ mod tests {
     use super::Model;
     use crate::error::Error;
     use crate::test_system::Quadratic2d;
+    use crate::WriteMode;
 
     #[test]
     fn json_round_trip_is_exact() {
