@@ -168,8 +168,13 @@ pub struct Summary {
     pub samples_heldout: usize,
     /// Minibatch size q.
     pub batch_size: usize,
-    /// Iterations run.
+    /// Iterations run (minibatch iterations; the final full-batch polish
+    /// is not counted).
     pub iterations: usize,
+    /// Whether a final full-batch iteration polished the best model.
+    pub polished: bool,
+    /// Why the identification stopped (`Converged`, `Stagnated`, …).
+    pub stop_reason: String,
     /// Metric-search cost (mean absolute residual per component) of the last iteration.
     pub final_metric_cost: f64,
     /// Cost (mean absolute residual per component) on the last minibatch at
@@ -391,7 +396,9 @@ pub fn run_until<S: MetriplecticSystem>(
         samples_train: train.len(),
         samples_heldout: held_out.len(),
         batch_size: options.batch_size,
-        iterations: history.iterations.len(),
+        iterations: history.iterations.iter().filter(|r| !r.polish).count(),
+        polished: history.iterations.iter().any(|r| r.polish),
+        stop_reason: format!("{:?}", identification.stop_reason),
         final_metric_cost: last.map_or(f64::NAN, |r| r.metric.cost_after.per_component),
         final_entropy_cost: last.map_or(f64::NAN, |r| r.cost_after().per_component),
         heldout_relative_error,
@@ -568,11 +575,10 @@ fn write_model_and_history<S: MetriplecticSystem>(
     model: &Model<S>,
     history: &History,
 ) -> Result<(), ReproductionError> {
+    let mut text = Vec::new();
+    history.write_csv(&mut text)?;
     let path = out.join("history.csv");
-    let file = fs::File::create(&path).map_err(io_error(&path))?;
-    history
-        .write_csv(std::io::BufWriter::new(file))
-        .map_err(io_error(&path))?;
+    fs::write(&path, text).map_err(io_error(&path))?;
     model.save(out.join("model.json"), WriteMode::Overwrite)?;
     Ok(())
 }

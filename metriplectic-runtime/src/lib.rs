@@ -103,10 +103,11 @@ pub use error::PlotError;
 pub use error::{CsvError, DatasetError, Error, Result, SimulationError};
 pub use identify::{
     entropy_search, identify, identify_resume, identify_resume_with_observer,
-    identify_with_observer, joint_step, metric_search, model_cost, CheckpointConfig, Cost,
-    EntropySearch, History, Identification, IdentifyConfig, IterationRecord, IterationScheme,
-    JointStep, JointStepRecord, MetricSearch, SearchOptions, SearchReport, SosBasis, StepOutcome,
-    StepRecord, StopReason, TrustRegion,
+    identify_with_observer, joint_step, metric_search, model_cost, CheckpointConfig,
+    CoefficientBlock, Cost, EntropySearch, History, Identification, IdentifyConfig,
+    IdentifyWarning, IterationRecord, IterationScheme, JointStep, JointStepRecord, MetricSearch,
+    SearchOptions, SearchReport, SosBasis, Stagnation, StepOutcome, StepRecord, StopReason,
+    TrustRegion, Validation,
 };
 pub use io::WriteMode;
 pub use metriplectic_macros::metriplectic;

@@ -52,7 +52,7 @@ fn config(checkpoint: Option<&Path>) -> IdentifyConfig {
             path: path.to_owned(),
             every: 2,
         }),
-        ..IdentifyConfig::default()
+        ..alternation()
     }
 }
 
@@ -231,7 +231,7 @@ fn checkpoint_settings_are_validated_before_any_work() {
     ] {
         let config = IdentifyConfig {
             checkpoint: Some(checkpoint.clone()),
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         let err = identify::<Linear2d>(&data, &config).unwrap_err();
         assert!(
@@ -255,7 +255,7 @@ fn a_converged_checkpoint_resumes_as_converged_without_iterating() {
             path: path.clone(),
             every: 100,
         }),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let first = identify::<Linear2d>(&data, &config).unwrap();
     assert_eq!(first.stop_reason, StopReason::Converged);

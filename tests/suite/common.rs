@@ -5,6 +5,7 @@ pub use metriplectic::systems::{
     linear2d_data, perturbed_reference_entropy, rigid_body_data, Linear2d, RigidBody,
 };
 use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{IterationScheme, Validation};
 
 /// θ of the constant metric K = c·I for system `S`.
 pub fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {
@@ -40,4 +41,19 @@ pub fn relative_error<S: MetriplecticSystem>(model: &Model<S>, data: &Dataset) -
 pub fn metric_pair_index(dim: usize, j: usize, k: usize) -> usize {
     let (j, k) = (j.min(k), j.max(k));
     j * dim - j * j.saturating_sub(1) / 2 + (k - j)
+}
+
+/// The paper's alternation on the full batch with no stopping rule but the
+/// tolerance (no stagnation, validation or polish): the defaults the
+/// identification tests were written for before the joint scheme became
+/// the default.
+pub fn alternation() -> IdentifyConfig {
+    IdentifyConfig {
+        batch_size: None,
+        stagnation: None,
+        validation: Validation::None,
+        polish: false,
+        scheme: IterationScheme::Alternating,
+        ..IdentifyConfig::default()
+    }
 }

@@ -8,6 +8,7 @@
 //! random points, data are synthesized from the reference model, and a few
 //! iterations of `identify` must fit held-out trajectories.
 
+use crate::common::alternation;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{identify, IdentifyConfig, IterationScheme, SolveStatus, TrustRegion};
 use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
@@ -185,7 +186,7 @@ fn identify_from_reference<S: MetriplecticSystem>(iterations: usize) -> (f64, f6
         max_iterations: iterations,
         initial_entropy: Some(perturbed),
         scheme: IterationScheme::AlternatingThenJoint(TrustRegion::default()),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let result = identify::<S>(&data.train, &config).expect("identification runs");
     for record in &result.history.iterations {

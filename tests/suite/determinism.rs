@@ -31,7 +31,7 @@ fn run_once() -> String {
         seed: 9,
         initial_entropy: Some(perturbed_reference_entropy::<RigidBody>(0.3, 9)),
         scheme: IterationScheme::AlternatingThenJoint(TrustRegion::default()),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let result = identify::<RigidBody>(&data, &config).unwrap();
     let history = serde_json::to_string(&without_timings(&result.history)).unwrap();

@@ -21,7 +21,7 @@ fn minibatch_larger_than_the_data_is_an_error_naming_both_sizes() {
     let data = linear2d_data(12, 41);
     let config = IdentifyConfig {
         batch_size: Some(13),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let err = identify::<Linear2d>(&data, &config).unwrap_err();
     let text = err.to_string();
@@ -34,7 +34,7 @@ fn minibatch_larger_than_the_data_is_an_error_naming_both_sizes() {
         batch_size: Some(12),
         max_iterations: 1,
         tolerance: 0.0,
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let result = identify::<Linear2d>(&data, &config).unwrap();
     assert_eq!(result.history.iterations[0].batch_size, 12);
@@ -54,7 +54,7 @@ fn duplicated_samples_weigh_the_cost_and_change_nothing_else() {
         max_iterations: 2,
         tolerance: 0.0,
         initial_entropy: Some(start),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let once = identify::<Linear2d>(&data, &config).unwrap();
     let twice = identify::<Linear2d>(&doubled, &config).unwrap();
@@ -86,7 +86,7 @@ fn a_single_sample_is_legal_data() {
         let config = IdentifyConfig {
             batch_size,
             max_iterations: 2,
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         // One sample, two equations: many models fit it exactly, but the
         // entropy LP is then degenerate and Clarabel may stop on a numerical
@@ -140,7 +140,7 @@ fn extreme_but_representable_magnitudes_are_handled_or_refused_never_worse() {
         let config = IdentifyConfig {
             max_iterations: 2,
             tolerance: 0.0,
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         match identify::<Linear2d>(&data, &config) {
             Ok(result) => {

@@ -39,7 +39,7 @@ fn algorithm1_full_batch_cost_is_non_increasing() {
         max_iterations: 8,
         tolerance: 0.0,
         initial_entropy: Some(perturbed_reference_entropy::<Linear2d>(0.5, 21)),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let result = identify::<Linear2d>(&data, &config).unwrap();
     for r in &result.history.iterations {
@@ -81,7 +81,7 @@ fn algorithm2_reduces_the_error_on_linear2d_from_the_paper_protocol() {
         tolerance: 1e-10,
         seed: 22,
         initial_entropy: Some(start.clone()),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let initial = Model::<Linear2d>::with_identity_metric(start.clone()).unwrap();
     let initial_error = relative_error(&initial, &held_out);
@@ -196,7 +196,7 @@ fn joint_scheme_full_batch_cost_is_non_increasing() {
         max_iterations: 8,
         tolerance: 0.0,
         initial_entropy: Some(perturbed_reference_entropy::<Linear2d>(0.5, 31)),
-        ..IdentifyConfig::default()
+        ..alternation()
     });
     let result = identify::<Linear2d>(&data, &config).unwrap();
     assert_eq!(result.history.iterations.len(), 8);
@@ -242,7 +242,7 @@ fn joint_scheme_identifies_linear2d_far_below_the_alternating_crawl() {
         tolerance: 1e-10,
         seed: 32,
         initial_entropy: Some(start),
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let joint = with_joint_steps(alternating.clone());
 

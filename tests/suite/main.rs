@@ -19,6 +19,7 @@
 
 mod common;
 
+mod badly_scaled_data;
 mod checkpoint_resume;
 mod data_io;
 mod degenerate_systems;
@@ -37,3 +38,4 @@ mod reproduction_interrupt;
 mod simulation;
 mod solver_status;
 mod solver_trouble;
+mod stop_reasons;

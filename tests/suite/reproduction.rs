@@ -51,8 +51,8 @@ fn check_outputs<S: MetriplecticSystem>(out: &Path, summary: &Summary) -> Summar
     let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
     assert_eq!(
         history.lines().count(),
-        summary.iterations + 1,
-        "one row per iteration plus header"
+        summary.iterations + usize::from(summary.polished) + 1,
+        "one row per iteration, the polish, and the header"
     );
 
     let model = Model::<S>::load(out.join("model.json")).unwrap();
@@ -74,6 +74,8 @@ fn check_outputs<S: MetriplecticSystem>(out: &Path, summary: &Summary) -> Summar
         "samples_heldout",
         "batch_size",
         "iterations",
+        "polished",
+        "stop_reason",
         "final_metric_cost",
         "final_entropy_cost",
         "heldout_relative_error",

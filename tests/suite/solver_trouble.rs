@@ -51,7 +51,7 @@ fn eta_too_small_for_the_truth_gives_the_best_fit_within_the_bound() {
         },
         max_iterations: 3,
         tolerance: 1e-9,
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let result = identify::<Linear2d>(&data, &config).unwrap();
     eprintln!("eta = 1: statuses {:?}", statuses(&result.history));
@@ -99,7 +99,7 @@ fn rank_deficient_data_is_solved_or_recorded_never_a_panic() {
         let config = IdentifyConfig {
             max_iterations: 3,
             tolerance: 1e-9,
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         let result = identify::<Linear2d>(&data, &config).unwrap_or_else(|e| panic!("{name}: {e}"));
         eprintln!(
@@ -136,7 +136,7 @@ fn zero_derivatives_are_fitted_by_a_model_without_motion() {
     let config = IdentifyConfig {
         max_iterations: 5,
         tolerance: 1e-7,
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     let result = identify::<Linear2d>(&data, &config).unwrap();
     eprintln!(
@@ -161,7 +161,7 @@ fn solver_that_never_succeeds_is_a_typed_error_after_the_allowed_failures() {
                 ..SearchOptions::default()
             },
             max_failed_iterations: failures,
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         let mut seen = Vec::new();
         let err = identify_with_observer::<RigidBody, _>(&data, &config, |record, _| {
@@ -197,7 +197,7 @@ fn overflowing_magnitudes_never_produce_a_model_worse_than_the_start() {
     let data = Dataset::from_flat(2, vec![1e40, -1e40, 2e40, 1e39], vec![1.0; 4]).unwrap();
     let config = IdentifyConfig {
         max_iterations: 3,
-        ..IdentifyConfig::default()
+        ..alternation()
     };
     match identify::<Linear2d>(&data, &config) {
         Err(err) => {

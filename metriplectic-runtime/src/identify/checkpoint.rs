@@ -21,6 +21,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::config::IdentifyConfig;
+use super::cost::Cost;
 use super::history::{History, StopReason};
 use super::state::RunState;
 use crate::data::Dataset;
@@ -73,8 +74,8 @@ impl CheckpointConfig {
 /// Format tag written into every checkpoint.
 const FORMAT: &str = "metriplectic-checkpoint";
 /// Version of the checkpoint layout.
-/// Version 2: the configuration holds one `search` options block.
-const VERSION: u32 = 2;
+/// Version 3: one `search` options block, stopping rules and the best model.
+const VERSION: u32 = 3;
 
 /// What a checkpoint was taken of: a resumed run must match it.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -136,6 +137,9 @@ struct CheckpointFile {
     failed_in_a_row: usize,
     ever_accepted: bool,
     stopped: Option<StopReason>,
+    /// The best-scoring model so far (entropy, metric) and its score.
+    best: Option<(Vec<f64>, Vec<f64>, Cost)>,
+    since_improvement: usize,
 }
 
 /// The configuration as the fingerprint compares it: the iteration cap may
@@ -174,6 +178,14 @@ pub(crate) fn save<S: MetriplecticSystem>(
         failed_in_a_row: state.failed_in_a_row,
         ever_accepted: state.ever_accepted,
         stopped: state.stopped,
+        best: state.best.as_ref().map(|(model, cost)| {
+            (
+                model.entropy_coefficients().to_vec(),
+                model.metric_coefficients().to_vec(),
+                *cost,
+            )
+        }),
+        since_improvement: state.since_improvement,
     };
     let json = serde_json::to_string(&file).map_err(|source| Error::Json {
         context: Some(path.display().to_string()),
@@ -263,6 +275,10 @@ pub(crate) fn load<S: MetriplecticSystem>(
         )));
     }
     let model = Model::<S>::new(file.entropy, file.metric)?;
+    let best = match file.best {
+        Some((entropy, metric, cost)) => Some((Model::<S>::new(entropy, metric)?, cost)),
+        None => None,
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
     rng.set_word_pos(word_position);
     Ok(RunState {
@@ -273,6 +289,8 @@ pub(crate) fn load<S: MetriplecticSystem>(
         ever_accepted: file.ever_accepted,
         radius: file.radius,
         stopped: file.stopped,
+        best,
+        since_improvement: file.since_improvement,
     })
 }
 

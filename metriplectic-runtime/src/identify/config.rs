@@ -9,50 +9,136 @@ use crate::error::{invalid, Result};
 use crate::model::{check_entropy, check_metric_coefficients};
 use crate::system::MetriplecticSystem;
 
-/// Configuration of [`identify`](crate::identify). Build with struct-update syntax from
-/// [`Default`]; [`identify`](crate::identify) validates it.
+/// Configuration of [`identify`](crate::identify). Build with
+/// struct-update syntax from [`Default`] (the recommended method: the joint
+/// scheme with stopping rules) or from [`IdentifyConfig::paper`] (the
+/// paper's Algorithm 2 exactly); [`identify`](crate::identify) validates it.
+///
+/// ```
+/// use metriplectic_runtime::{IdentifyConfig, IterationScheme};
+///
+/// let config = IdentifyConfig { batch_size: Some(500), max_iterations: 50, ..IdentifyConfig::default() };
+/// assert!(matches!(config.scheme, IterationScheme::AlternatingThenJoint(_)));
+/// assert!(matches!(IdentifyConfig::paper().scheme, IterationScheme::Alternating));
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct IdentifyConfig {
-    /// `None`: Algorithm 1 on the full data. `Some(q)`: Algorithm 2, a fresh
-    /// minibatch of q distinct samples each iteration. q must be between 1
-    /// and the number of samples (a larger q is an error, not a clamp, so a
-    /// typo does not silently turn Algorithm 2 into Algorithm 1).
+    /// `None` (the default): Algorithm 1 on the full data. `Some(q)`:
+    /// Algorithm 2, a fresh minibatch of q distinct samples each iteration.
+    /// q must be between 1 and the number of samples available for batches
+    /// (a larger q is an error, not a clamp, so a typo does not silently
+    /// turn Algorithm 2 into Algorithm 1).
     pub batch_size: Option<usize>,
-    /// Iteration cap (each iteration = one metric and one entropy search).
+    /// Iteration cap. Default 100.
     pub max_iterations: usize,
-    /// Stop when the per-component cost on the iteration's batch is ≤ this.
+    /// Converged ([`StopReason::Converged`](crate::StopReason::Converged))
+    /// when the mean absolute residual per component on the validation
+    /// samples (without validation: the iteration's batch) is at most
+    /// `tolerance` times their scale, their mean |ẋ| per component (1 if
+    /// every ẋ is zero). Relative, so that data in any units are judged
+    /// alike. Default 1e-9.
     pub tolerance: f64,
-    /// Seed of the minibatch generator (ChaCha8): equal seeds give equal runs.
+    /// Stop when the run no longer improves
+    /// ([`StopReason::Stagnated`](crate::StopReason::Stagnated)): noisy data
+    /// never reach the tolerance. `None` runs to the cap. Default
+    /// [`Stagnation::default`].
+    pub stagnation: Option<Stagnation>,
+    /// Which samples score the model after each iteration of a minibatch run
+    /// (and decide stagnation): the run returns the best-scoring model, not
+    /// the last accepted one. Full-batch runs score on the full data.
+    /// Default [`Validation::AllData`].
+    pub validation: Validation,
+    /// Minibatch runs only: end with one full-batch iteration from the best
+    /// model (its steps accepted under the usual rule). Default `true`.
+    pub polish: bool,
+    /// Seed of the minibatch generator (ChaCha8): equal seeds give equal
+    /// runs. Default 0.
     pub seed: u64,
-    /// Initial entropy coefficients ψ⁽⁰⁾ (`None`: zeros).
+    /// Initial entropy coefficients ψ⁽⁰⁾. Default `None`: zeros.
     pub initial_entropy: Option<Vec<f64>>,
-    /// Initial metric coefficients θ⁽⁰⁾ (`None`: the identity metric).
+    /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite).
+    /// Default `None`: the identity metric.
     pub initial_metric: Option<Vec<f64>>,
     /// Options of every search: the coefficient bound η, the SOS tables and
     /// the solver. Default [`SearchOptions::default`] (η = 20).
     pub search: SearchOptions,
-    /// Give up after this many consecutive iterations in which both solves failed.
+    /// Give up after this many consecutive iterations in which both solves
+    /// failed. Default 3.
     pub max_failed_iterations: usize,
-    /// Which steps each iteration takes (default: the paper's alternation).
+    /// Which steps each iteration takes. Default
+    /// [`IterationScheme::AlternatingThenJoint`] with [`TrustRegion::default`].
     pub scheme: IterationScheme,
     /// Periodic checkpoints of the run's full state, from which
-    /// [`identify_resume`](crate::identify_resume) continues it (`None`: no checkpoints).
+    /// [`identify_resume`](crate::identify_resume) continues it. Default
+    /// `None`: no checkpoints.
     pub checkpoint: Option<CheckpointConfig>,
 }
 
+/// When a run that no longer improves stops.
+///
+/// After every iteration the run scores its model (on the validation
+/// samples, or the batch for full-batch runs). It stops when the best score
+/// has not fallen by more than `relative_improvement` (relative) for
+/// `window` consecutive iterations — which includes iterations whose steps
+/// were all rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Stagnation {
+    /// Iterations without improvement before stopping. Default 5.
+    pub window: usize,
+    /// Smallest relative decrease of the best score that counts as an
+    /// improvement. Default 1e-4.
+    pub relative_improvement: f64,
+}
+
+impl Default for Stagnation {
+    fn default() -> Self {
+        Self {
+            window: 5,
+            relative_improvement: 1e-4,
+        }
+    }
+}
+
+/// Which samples score a minibatch run's model after every iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum Validation {
+    /// All samples (the default): the run returns the model that fits the
+    /// whole dataset best.
+    #[default]
+    AllData,
+    /// A held-out part of the samples, drawn at random (seeded by
+    /// [`IdentifyConfig::seed`]) and never used in a batch.
+    HeldOut {
+        /// Fraction of the samples held out, in (0, 1).
+        fraction: f64,
+    },
+    /// No scoring: the run returns the last accepted iterate, as the
+    /// paper's Algorithm 2 does.
+    None,
+}
+
 /// The steps of one iteration of [`identify`](crate::identify).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum IterationScheme {
     /// The paper's Algorithms 1 and 2: metric search, then entropy search.
-    #[default]
     Alternating,
     /// Metric search, entropy search, then a joint linearised step in both
-    /// blocks ([`joint_step`](crate::joint_step)) on the same batch, in a trust region
-    /// that adapts from step to step. Every step is accepted only if the
-    /// batch cost does not increase, so Theorem 1 still holds.
+    /// blocks ([`joint_step`](crate::joint_step)) on the same batch, in a
+    /// trust region that adapts from step to step (the default). Every step
+    /// is accepted only if the batch cost does not increase, so the paper's
+    /// Theorem 1 still holds. The alternation alone can crawl (each block
+    /// optimal, the pair not jointly stationary); the joint step removes that.
     AlternatingThenJoint(TrustRegion),
+}
+
+impl Default for IterationScheme {
+    fn default() -> Self {
+        Self::AlternatingThenJoint(TrustRegion::default())
+    }
 }
 
 impl Default for IdentifyConfig {
@@ -61,33 +147,53 @@ impl Default for IdentifyConfig {
             batch_size: None,
             max_iterations: 100,
             tolerance: 1e-9,
+            stagnation: Some(Stagnation::default()),
+            validation: Validation::AllData,
+            polish: true,
             seed: 0,
             initial_entropy: None,
             initial_metric: None,
             search: SearchOptions::default(),
             max_failed_iterations: 3,
-            scheme: IterationScheme::Alternating,
+            scheme: IterationScheme::default(),
             checkpoint: None,
         }
     }
 }
 
 impl IdentifyConfig {
+    /// The paper's Algorithm 2 exactly: alternating metric and entropy
+    /// searches on minibatches of q = 2000, no joint step, no stopping rule
+    /// but the tolerance and the cap of 100 iterations, and the last
+    /// accepted iterate returned (no validation, no polish).
+    pub fn paper() -> Self {
+        Self {
+            batch_size: Some(2000),
+            stagnation: None,
+            validation: Validation::None,
+            polish: false,
+            scheme: IterationScheme::Alternating,
+            ..Self::default()
+        }
+    }
+
     /// Checks the configuration against system `S` and a dataset of
     /// `samples` samples.
     pub fn validate<S: MetriplecticSystem>(&self, samples: usize) -> Result<()> {
+        let pool = samples - self.held_out(samples);
         match self.batch_size {
             Some(0) => {
                 return Err(invalid(
                     "batch size",
-                    "must be at least 1 (use None for the full batch)".to_owned(),
+                    "must be at least 1 (use None for the full batch)",
                 ))
             }
-            Some(q) if q > samples => {
+            Some(q) if q > pool => {
                 return Err(invalid(
                     "batch size",
                     format!(
-                        "{q} exceeds the {samples} samples of the dataset (use None for the full batch)"
+                        "{q} exceeds the {pool} samples available for batches (of {samples}; \
+                         use None for the full batch)"
                     ),
                 ))
             }
@@ -99,14 +205,39 @@ impl IdentifyConfig {
                 format!("{} is not a finite non-negative number", self.tolerance),
             ));
         }
+        if let Some(stagnation) = &self.stagnation {
+            if stagnation.window == 0 {
+                return Err(invalid("stagnation window", "must be at least 1"));
+            }
+            let delta = stagnation.relative_improvement;
+            if !(delta.is_finite() && (0.0..1.0).contains(&delta)) {
+                return Err(invalid(
+                    "stagnation relative_improvement",
+                    format!("{delta} is not in [0, 1)"),
+                ));
+            }
+        }
+        if let Validation::HeldOut { fraction } = self.validation {
+            if !(fraction > 0.0 && fraction < 1.0) {
+                return Err(invalid(
+                    "validation fraction",
+                    format!("{fraction} is not in (0, 1)"),
+                ));
+            }
+            if self.held_out(samples) == 0 || self.held_out(samples) == samples {
+                return Err(invalid(
+                    "validation fraction",
+                    format!(
+                        "{fraction} of {samples} samples leaves no validation or no batch samples"
+                    ),
+                ));
+            }
+        }
         if self.max_iterations == 0 {
-            return Err(invalid("max_iterations", "must be at least 1".to_owned()));
+            return Err(invalid("max_iterations", "must be at least 1"));
         }
         if self.max_failed_iterations == 0 {
-            return Err(invalid(
-                "max_failed_iterations",
-                "must be at least 1".to_owned(),
-            ));
+            return Err(invalid("max_failed_iterations", "must be at least 1"));
         }
         if let Some(entropy) = &self.initial_entropy {
             check_entropy::<S>("initial entropy coefficients", entropy)?;
@@ -121,6 +252,16 @@ impl IdentifyConfig {
             checkpoint.validate()?;
         }
         self.search.validate()
+    }
+
+    /// Number of the `samples` held out for validation.
+    pub(crate) fn held_out(&self, samples: usize) -> usize {
+        match self.validation {
+            Validation::HeldOut { fraction } if self.batch_size.is_some() => {
+                ((fraction * samples as f64).round() as usize).min(samples)
+            }
+            _ => 0,
+        }
     }
 }
 

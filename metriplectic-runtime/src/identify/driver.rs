@@ -8,13 +8,14 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::checkpoint;
-use super::config::{IdentifyConfig, IterationScheme};
+use super::config::{IdentifyConfig, IterationScheme, Validation};
 use super::cost::{check_dataset, model_cost, Cost};
 use super::history::{
     History, IterationRecord, JointStepRecord, StepOutcome, StepRecord, StopReason,
 };
 use super::search::{entropy_search, joint_step, metric_search, SearchReport};
 use super::state::RunState;
+use super::warnings::{data_warnings, IdentifyWarning};
 use crate::data::Dataset;
 use crate::error::{Error, Result};
 use crate::model::{identity_metric, Model};
@@ -24,12 +25,16 @@ use crate::system::MetriplecticSystem;
 /// Result of [`identify`].
 #[derive(Debug, Clone)]
 pub struct Identification<S: MetriplecticSystem> {
-    /// The identified model (the last accepted iterate).
+    /// The identified model: the last accepted iterate of a full-batch run,
+    /// the best-scoring (and polished) one of a minibatch run.
     pub model: Model<S>,
     /// Per-iteration records.
     pub history: History,
     /// Why the run stopped.
     pub stop_reason: StopReason,
+    /// What the data cannot determine (empty when they determine every
+    /// coefficient): read these before trusting the coefficients.
+    pub warnings: Vec<IdentifyWarning>,
 }
 
 /// Runs Algorithm 1 or 2 (per [`IdentifyConfig::batch_size`]) on `data`.
@@ -111,6 +116,8 @@ where
             IterationScheme::Alternating => 0.0,
         },
         stopped: None,
+        best: None,
+        since_improvement: 0,
     };
     run(data, config, state, observer)
 }
@@ -149,12 +156,118 @@ where
     config.validate::<S>(data.len())?;
     let state = checkpoint::load::<S>(path.as_ref(), data, config)?;
     match state.stopped {
-        Some(reason @ (StopReason::Converged | StopReason::SolverFailures)) => Ok(Identification {
-            model: state.model,
-            history: state.history,
-            stop_reason: reason,
-        }),
+        Some(
+            reason @ (StopReason::Converged | StopReason::Stagnated | StopReason::SolverFailures),
+        ) => {
+            let warnings = data_warnings(data, &state.model, config)?;
+            Ok(Identification {
+                model: state.model,
+                history: state.history,
+                stop_reason: reason,
+                warnings,
+            })
+        }
         _ => run(data, config, state, observer),
+    }
+}
+
+/// The samples batches are drawn from and those that score the model.
+struct Split {
+    pool: Dataset,
+    validation: Option<Dataset>,
+}
+
+impl Split {
+    fn new(data: &Dataset, config: &IdentifyConfig) -> Result<Self> {
+        let held_out = config.held_out(data.len());
+        if config.batch_size.is_none() {
+            return Ok(Self {
+                pool: data.clone(),
+                validation: None,
+            });
+        }
+        match config.validation {
+            Validation::None => Ok(Self {
+                pool: data.clone(),
+                validation: None,
+            }),
+            Validation::AllData => Ok(Self {
+                pool: data.clone(),
+                validation: Some(data.clone()),
+            }),
+            _ => {
+                // A stream of its own, so that the batches do not depend on it.
+                let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x0ba1_1da7_e000_0000);
+                let mut order =
+                    rand::seq::index::sample(&mut rng, data.len(), data.len()).into_vec();
+                let validation = order.split_off(data.len() - held_out);
+                order.sort_unstable();
+                Ok(Self {
+                    pool: data.select(&order)?,
+                    validation: Some(data.select(&validation)?),
+                })
+            }
+        }
+    }
+}
+
+/// The steps of one iteration on `batch` from `state.model` (and the trust
+/// radius), accepted under Theorem 1's rule; updates the model and radius.
+fn iterate_on<S: MetriplecticSystem>(
+    batch: &Dataset,
+    config: &IdentifyConfig,
+    state: &mut RunState<S>,
+) -> Result<(Cost, StepRecord, StepRecord, Option<JointStepRecord>)> {
+    let options = &config.search;
+    let model = &mut state.model;
+    let cost_before = model_cost(model, batch)?;
+
+    let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
+    let metric = decide(model, cost_before, search.report, |m| {
+        m.set_metric_coefficients(search.coefficients)
+    });
+    let search = entropy_search::<S>(batch, model.metric_coefficients(), options)?;
+    let entropy = decide(model, metric.cost_after, search.report, |m| {
+        m.set_entropy_coefficients(search.coefficients)
+    });
+
+    let joint = match &config.scheme {
+        IterationScheme::Alternating => None,
+        IterationScheme::AlternatingThenJoint(trust) => {
+            let current = entropy.cost_after;
+            let radius = state.radius;
+            let step = joint_step::<S>(batch, model, radius, options)?;
+            let record = decide(model, current, step.report, |m| {
+                *m = Model::new(step.entropy, step.metric)?;
+                Ok(())
+            });
+            let ratio = match (record.outcome, step.predicted) {
+                (StepOutcome::Accepted, Some(predicted)) if predicted.sum < current.sum => {
+                    Some((current.sum - record.cost_after.sum) / (current.sum - predicted.sum))
+                }
+                _ => None,
+            };
+            state.radius = trust.update(radius, ratio);
+            Some(JointStepRecord {
+                step: record,
+                radius,
+                predicted: step.predicted,
+                ratio,
+            })
+        }
+    };
+    Ok((cost_before, metric, entropy, joint))
+}
+
+/// The batch's scale for the relative tolerance: its mean |ẋ| per component.
+/// (1 when every ẋ is zero, so that the tolerance is then absolute).
+fn data_scale(data: &Dataset) -> f64 {
+    let derivatives = data.derivatives();
+    let mean = derivatives.iter().map(|v| v.abs()).sum::<f64>() / derivatives.len().max(1) as f64;
+    if mean > 0.0 {
+        mean
+    } else {
+        1.0
     }
 }
 
@@ -169,7 +282,7 @@ where
     S: MetriplecticSystem,
     F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
 {
-    let options = &config.search;
+    let split = Split::new(data, config)?;
     let first = state.history.iterations.len() + 1;
     state.stopped = None;
 
@@ -177,49 +290,13 @@ where
         let batch = match config.batch_size {
             None => None,
             Some(q) => {
-                let indices = rand::seq::index::sample(&mut state.rng, data.len(), q).into_vec();
-                Some(data.select(&indices)?)
+                let indices =
+                    rand::seq::index::sample(&mut state.rng, split.pool.len(), q).into_vec();
+                Some(split.pool.select(&indices)?)
             }
         };
-        let batch = batch.as_ref().unwrap_or(data);
-        let model = &mut state.model;
-        let cost_before = model_cost(model, batch)?;
-
-        let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
-        let metric = decide(model, cost_before, search.report, |m| {
-            m.set_metric_coefficients(search.coefficients)
-        });
-        let search = entropy_search::<S>(batch, model.metric_coefficients(), options)?;
-        let entropy = decide(model, metric.cost_after, search.report, |m| {
-            m.set_entropy_coefficients(search.coefficients)
-        });
-
-        let joint = match &config.scheme {
-            IterationScheme::Alternating => None,
-            IterationScheme::AlternatingThenJoint(trust) => {
-                let current = entropy.cost_after;
-                let radius = state.radius;
-                let step = joint_step::<S>(batch, model, radius, options)?;
-                let record = decide(model, current, step.report, |m| {
-                    *m = Model::new(step.entropy, step.metric)?;
-                    Ok(())
-                });
-                let ratio = match (record.outcome, step.predicted) {
-                    (StepOutcome::Accepted, Some(predicted)) if predicted.sum < current.sum => {
-                        Some((current.sum - record.cost_after.sum) / (current.sum - predicted.sum))
-                    }
-                    _ => None,
-                };
-                let taken = JointStepRecord {
-                    step: record,
-                    radius,
-                    predicted: step.predicted,
-                    ratio,
-                };
-                state.radius = trust.update(radius, ratio);
-                Some(taken)
-            }
-        };
+        let batch = batch.as_ref().unwrap_or(&split.pool);
+        let (cost_before, metric, entropy, joint) = iterate_on(batch, config, &mut state)?;
 
         let accepted = [
             Some(&metric),
@@ -239,18 +316,42 @@ where
             0
         };
 
-        let record = IterationRecord {
+        let mut record = IterationRecord {
             iteration,
             batch_size: batch.len(),
             cost_before,
             metric,
             entropy,
             joint,
+            validation_cost: None,
+            polish: false,
         };
         let cost_now = record.cost_after();
+        // The score: on the validation samples, or the batch when it is all the data.
+        let score = match (&split.validation, config.batch_size) {
+            (Some(validation), _) => Some(model_cost(&state.model, validation)?),
+            (None, None) => Some(cost_now),
+            (None, Some(_)) => None,
+        };
+        record.validation_cost = split.validation.as_ref().and(score);
+        // Converged when the model fits the scoring samples (or, without
+        // them, the batch) to the tolerance: a model fitted to one small
+        // batch has not converged.
+        let converged = match (&split.validation, score) {
+            (Some(validation), Some(score)) => {
+                score.per_component <= config.tolerance * data_scale(validation)
+            }
+            _ => cost_now.per_component <= config.tolerance * data_scale(batch),
+        };
+        if let Some(score) = score {
+            track_best(&mut state, score, config.stagnation.as_ref());
+        }
         let flow = observer(&record, &state.model);
         state.history.iterations.push(record);
 
+        let stagnated = config
+            .stagnation
+            .is_some_and(|s| score.is_some() && state.since_improvement >= s.window);
         if state.failed_in_a_row >= config.max_failed_iterations {
             if !state.ever_accepted {
                 let last = &state.history.iterations[state.history.iterations.len() - 1];
@@ -263,8 +364,10 @@ where
                 });
             }
             state.stopped = Some(StopReason::SolverFailures);
-        } else if cost_now.per_component <= config.tolerance {
+        } else if converged {
             state.stopped = Some(StopReason::Converged);
+        } else if stagnated {
+            state.stopped = Some(StopReason::Stagnated);
         } else if flow.is_break() {
             state.stopped = Some(StopReason::Interrupted);
         } else if iteration == config.max_iterations {
@@ -279,11 +382,80 @@ where
             break;
         }
     }
+    // A resumed run whose cap was already reached runs no iteration.
+    state.stopped = Some(state.stopped.unwrap_or(StopReason::MaxIterations));
+    finish(data, config, &split, state)
+}
+
+/// Keeps the best-scoring model and counts iterations without improvement.
+fn track_best<S: MetriplecticSystem>(
+    state: &mut RunState<S>,
+    score: Cost,
+    stagnation: Option<&super::config::Stagnation>,
+) {
+    let delta = stagnation.map_or(0.0, |s| s.relative_improvement);
+    match &state.best {
+        Some((_, best)) if score.sum > best.sum * (1.0 - delta) => {
+            state.since_improvement += 1;
+            if score.sum < best.sum {
+                state.best = Some((state.model.clone(), score));
+            }
+        }
+        _ => {
+            state.best = Some((state.model.clone(), score));
+            state.since_improvement = 0;
+        }
+    }
+}
+
+/// The result of a stopped run: a scoring run returns its best model,
+/// polished by one full-batch iteration when asked (and kept only if it
+/// scores no worse). A function of the run's state alone, so that a run
+/// resumed from the checkpoint of a stopped run returns the same result;
+/// the checkpoint keeps the state before it, from which a longer run
+/// continues as if it had never stopped.
+fn finish<S: MetriplecticSystem>(
+    data: &Dataset,
+    config: &IdentifyConfig,
+    split: &Split,
+    mut state: RunState<S>,
+) -> Result<Identification<S>> {
+    let stop_reason = state.stopped.unwrap_or(StopReason::MaxIterations);
+    if let Some((best, _)) = &state.best {
+        state.model = best.clone();
+    }
+    let polishing = config.batch_size.is_some()
+        && config.polish
+        && !matches!(
+            stop_reason,
+            StopReason::Interrupted | StopReason::SolverFailures
+        );
+    if polishing {
+        let best = state.best.clone();
+        let (cost_before, metric, entropy, joint) = iterate_on(data, config, &mut state)?;
+        let score = model_cost(&state.model, split.validation.as_ref().unwrap_or(data))?;
+        state.history.iterations.push(IterationRecord {
+            iteration: state.history.iterations.len() + 1,
+            batch_size: data.len(),
+            cost_before,
+            metric,
+            entropy,
+            joint,
+            validation_cost: split.validation.as_ref().map(|_| score),
+            polish: true,
+        });
+        if let Some((best, best_score)) = best {
+            if score.sum > best_score.sum {
+                state.model = best;
+            }
+        }
+    }
+    let warnings = data_warnings(data, &state.model, config)?;
     Ok(Identification {
         model: state.model,
         history: state.history,
-        // A resumed run whose cap was already reached runs no iteration.
-        stop_reason: state.stopped.unwrap_or(StopReason::MaxIterations),
+        stop_reason,
+        warnings,
     })
 }
 
@@ -322,6 +494,19 @@ fn decide<S: MetriplecticSystem>(
 mod tests {
     use super::*;
     use crate::test_system::{reference_data, Quadratic2d};
+
+    /// The paper's alternation on the full batch with no stopping rule but
+    /// the tolerance: the defaults these tests were written for.
+    fn alternation() -> IdentifyConfig {
+        IdentifyConfig {
+            batch_size: None,
+            stagnation: None,
+            validation: Validation::None,
+            polish: false,
+            scheme: IterationScheme::Alternating,
+            ..IdentifyConfig::default()
+        }
+    }
     use crate::{SearchOptions, SolveStatus, SolverSettings};
 
     fn assert_non_increasing(history: &History) {
@@ -346,7 +531,7 @@ mod tests {
         let config = IdentifyConfig {
             max_iterations: 6,
             tolerance: 0.0,
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         let result = identify::<Quadratic2d>(&data, &config).unwrap();
         assert_eq!(result.history.iterations.len(), 6);
@@ -373,7 +558,7 @@ mod tests {
             max_iterations: 40,
             tolerance: 1e-9,
             initial_entropy: Some(start),
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         let result = identify::<Quadratic2d>(&data, &config).unwrap();
         assert_non_increasing(&result.history);
@@ -391,7 +576,7 @@ mod tests {
             tolerance: 0.0,
             seed: 7,
             initial_entropy: Some(vec![0.1; 5]),
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         let costs = |config: &IdentifyConfig| -> Vec<f64> {
             identify::<Quadratic2d>(&data, config)
@@ -419,7 +604,7 @@ mod tests {
             &data,
             &IdentifyConfig {
                 tolerance: 0.0,
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             |record, _model| {
                 seen += 1;
@@ -441,7 +626,7 @@ mod tests {
             &IdentifyConfig {
                 max_iterations: 2,
                 tolerance: 0.0,
-                ..IdentifyConfig::default()
+                ..alternation()
             },
         )
         .unwrap();
@@ -462,37 +647,37 @@ mod tests {
         let bad = [
             IdentifyConfig {
                 batch_size: Some(0),
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             IdentifyConfig {
                 batch_size: Some(11),
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             IdentifyConfig {
                 search: SearchOptions {
                     eta: 0.0,
                     ..SearchOptions::default()
                 },
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             IdentifyConfig {
                 search: SearchOptions {
                     eta: f64::NAN,
                     ..SearchOptions::default()
                 },
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             IdentifyConfig {
                 tolerance: f64::INFINITY,
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             IdentifyConfig {
                 initial_entropy: Some(vec![0.0; 4]),
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             IdentifyConfig {
                 initial_metric: Some(vec![f64::NAN; 18]),
-                ..IdentifyConfig::default()
+                ..alternation()
             },
             IdentifyConfig {
                 search: SearchOptions {
@@ -502,7 +687,7 @@ mod tests {
                     },
                     ..SearchOptions::default()
                 },
-                ..IdentifyConfig::default()
+                ..alternation()
             },
         ];
         for config in &bad {
@@ -519,7 +704,7 @@ mod tests {
         }
         let wrong_dim = Dataset::from_flat(3, vec![0.0; 3], vec![0.0; 3]).unwrap();
         assert!(matches!(
-            identify::<Quadratic2d>(&wrong_dim, &IdentifyConfig::default()),
+            identify::<Quadratic2d>(&wrong_dim, &alternation()),
             Err(Error::DimensionMismatch { .. })
         ));
     }
@@ -539,7 +724,7 @@ mod tests {
                 ..SearchOptions::default()
             },
             max_failed_iterations: 2,
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         // Off the truth, so the data are not already fitted (cost > 0).
         let reference = Model::<Quadratic2d>::reference().unwrap();
@@ -555,6 +740,8 @@ mod tests {
             ever_accepted: true,
             radius: 0.0,
             stopped: None,
+            best: None,
+            since_improvement: 0,
         };
         let result = run(&data, &config, state, |_, _| ControlFlow::Continue(())).unwrap();
         assert_eq!(result.stop_reason, StopReason::SolverFailures);
@@ -581,7 +768,7 @@ mod tests {
                 ..SearchOptions::default()
             },
             max_failed_iterations: 2,
-            ..IdentifyConfig::default()
+            ..alternation()
         };
         let mut models = Vec::new();
         let err = identify_with_observer::<Quadratic2d, _>(&data, &config, |record, model| {

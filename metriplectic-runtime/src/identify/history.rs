@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::cost::Cost;
 use super::search::SearchReport;
+use crate::error::{Error, Result};
 use crate::solve::SolveStatus;
 
 /// What became of one subproblem's result.
@@ -48,6 +49,14 @@ pub struct IterationRecord {
     /// The joint step, if the scheme takes one.
     #[serde(default)]
     pub joint: Option<JointStepRecord>,
+    /// Cost of the model after the iteration on the validation samples of a
+    /// minibatch run (`None` without validation).
+    #[serde(default)]
+    pub validation_cost: Option<Cost>,
+    /// `true` for the final full-batch iteration that polishes a minibatch
+    /// run's best model.
+    #[serde(default)]
+    pub polish: bool,
 }
 
 impl IterationRecord {
@@ -83,68 +92,116 @@ pub struct History {
 }
 
 impl History {
-    /// Writes the history as CSV, one row per iteration, with a header.
-    pub fn write_csv<W: Write>(&self, mut out: W) -> std::io::Result<()> {
-        writeln!(
-            out,
-            "iteration,batch_size,cost_before_sum,cost_before_per_component,\
-             metric_status,metric_outcome,metric_ipm_iterations,metric_assembly_s,metric_solver_s,\
-             metric_candidate_per_component,metric_cost_after_sum,metric_cost_after_per_component,\
-             entropy_status,entropy_outcome,entropy_ipm_iterations,entropy_assembly_s,entropy_solver_s,\
-             entropy_candidate_per_component,entropy_cost_after_sum,entropy_cost_after_per_component,\
-             joint_status,joint_outcome,joint_ipm_iterations,joint_assembly_s,joint_solver_s,\
-             joint_candidate_per_component,joint_cost_after_sum,joint_cost_after_per_component,\
-             joint_radius,joint_predicted_per_component,joint_ratio"
-        )?;
+    /// The column names of [`write_csv`](Self::write_csv), in order.
+    pub const CSV_COLUMNS: &'static [&'static str] = &[
+        "iteration",
+        "polish",
+        "batch_size",
+        "cost_before_sum",
+        "cost_before_per_component",
+        "metric_status",
+        "metric_outcome",
+        "metric_ipm_iterations",
+        "metric_assembly_s",
+        "metric_solver_s",
+        "metric_candidate_per_component",
+        "metric_cost_after_sum",
+        "metric_cost_after_per_component",
+        "entropy_status",
+        "entropy_outcome",
+        "entropy_ipm_iterations",
+        "entropy_assembly_s",
+        "entropy_solver_s",
+        "entropy_candidate_per_component",
+        "entropy_cost_after_sum",
+        "entropy_cost_after_per_component",
+        "joint_status",
+        "joint_outcome",
+        "joint_ipm_iterations",
+        "joint_assembly_s",
+        "joint_solver_s",
+        "joint_candidate_per_component",
+        "joint_cost_after_sum",
+        "joint_cost_after_per_component",
+        "joint_radius",
+        "joint_predicted_per_component",
+        "joint_ratio",
+        "validation_per_component",
+    ];
+
+    /// Writes the history as CSV, one row per iteration, with a header
+    /// ([`CSV_COLUMNS`](Self::CSV_COLUMNS)); empty cells for steps an
+    /// iteration did not take. Write errors are [`Error::Io`] with the path
+    /// `<writer>`.
+    ///
+    /// ```
+    /// use metriplectic_runtime::History;
+    ///
+    /// let mut text = Vec::new();
+    /// History::default().write_csv(&mut text)?;
+    /// assert!(String::from_utf8(text).unwrap().starts_with("iteration,polish,batch_size,"));
+    /// # Ok::<(), metriplectic_runtime::Error>(())
+    /// ```
+    pub fn write_csv<W: Write>(&self, out: W) -> Result<()> {
+        let mut writer = csv::Writer::from_writer(out);
+        let io = |error: csv::Error| Error::Io {
+            path: "<writer>".into(),
+            source: error.into(),
+        };
+        writer.write_record(Self::CSV_COLUMNS).map_err(io)?;
+        let number = |v: f64| v.to_string();
         for r in &self.iterations {
-            write!(
-                out,
-                "{},{},{},{}",
-                r.iteration, r.batch_size, r.cost_before.sum, r.cost_before.per_component
-            )?;
+            let mut row = vec![
+                r.iteration.to_string(),
+                r.polish.to_string(),
+                r.batch_size.to_string(),
+                number(r.cost_before.sum),
+                number(r.cost_before.per_component),
+            ];
             for step in [
                 Some(&r.metric),
                 Some(&r.entropy),
                 r.joint.as_ref().map(|j| &j.step),
             ] {
-                let Some(step) = step else {
-                    write!(out, ",,,,,,,,")?;
-                    continue;
-                };
-                let candidate = step
-                    .report
-                    .cost
-                    .map(|c| c.per_component.to_string())
-                    .unwrap_or_default();
-                write!(
-                    out,
-                    ",{},{:?},{},{},{},{},{},{}",
-                    step.report.status,
-                    step.outcome,
-                    step.report.iterations,
-                    step.report.assembly_seconds,
-                    step.report.solver_seconds,
-                    candidate,
-                    step.cost_after.sum,
-                    step.cost_after.per_component
-                )?;
+                match step {
+                    None => row.extend(std::iter::repeat_n(String::new(), 8)),
+                    Some(step) => row.extend([
+                        step.report.status.to_string(),
+                        format!("{:?}", step.outcome),
+                        step.report.iterations.to_string(),
+                        number(step.report.assembly_seconds),
+                        number(step.report.solver_seconds),
+                        step.report
+                            .cost
+                            .map(|c| number(c.per_component))
+                            .unwrap_or_default(),
+                        number(step.cost_after.sum),
+                        number(step.cost_after.per_component),
+                    ]),
+                }
             }
             match &r.joint {
-                Some(joint) => write!(
-                    out,
-                    ",{},{},{}",
-                    joint.radius,
+                Some(joint) => row.extend([
+                    number(joint.radius),
                     joint
                         .predicted
-                        .map(|c| c.per_component.to_string())
+                        .map(|c| number(c.per_component))
                         .unwrap_or_default(),
-                    joint.ratio.map(|c| c.to_string()).unwrap_or_default()
-                )?,
-                None => write!(out, ",,,")?,
+                    joint.ratio.map(number).unwrap_or_default(),
+                ]),
+                None => row.extend(std::iter::repeat_n(String::new(), 3)),
             }
-            writeln!(out)?;
+            row.push(
+                r.validation_cost
+                    .map(|c| number(c.per_component))
+                    .unwrap_or_default(),
+            );
+            writer.write_record(&row).map_err(io)?;
         }
-        Ok(())
+        writer.flush().map_err(|source| Error::Io {
+            path: "<writer>".into(),
+            source,
+        })
     }
 
     /// Counts of each solver status over both subproblems: (metric, entropy).
@@ -190,8 +247,12 @@ impl History {
 /// Why [`identify`](crate::identify) stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum StopReason {
-    /// The batch cost per component reached the tolerance.
+    /// The batch cost per component reached the tolerance (relative to the
+    /// batch's mean |ẋ|).
     Converged,
+    /// The run stopped improving: its score did not improve for the
+    /// configured window of iterations.
+    Stagnated,
     /// The iteration cap was reached.
     MaxIterations,
     /// The observer asked to stop.

@@ -9,9 +9,10 @@ mod driver;
 mod history;
 pub(crate) mod search;
 mod state;
+mod warnings;
 
 pub use checkpoint::CheckpointConfig;
-pub use config::{IdentifyConfig, IterationScheme, TrustRegion};
+pub use config::{IdentifyConfig, IterationScheme, Stagnation, TrustRegion, Validation};
 pub use cost::{model_cost, Cost};
 pub use driver::{
     identify, identify_resume, identify_resume_with_observer, identify_with_observer,
@@ -22,3 +23,4 @@ pub use search::{
     entropy_search, joint_step, metric_search, EntropySearch, JointStep, MetricSearch,
     SearchOptions, SearchReport, SosBasis,
 };
+pub use warnings::{CoefficientBlock, IdentifyWarning};

@@ -3,6 +3,7 @@
 
 use rand_chacha::ChaCha8Rng;
 
+use super::cost::Cost;
 use super::history::{History, StopReason};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
@@ -12,6 +13,10 @@ use crate::system::MetriplecticSystem;
 pub(crate) struct RunState<S: MetriplecticSystem> {
     /// The current (last accepted) model.
     pub(crate) model: Model<S>,
+    /// The best-scoring model so far and its score, when the run scores.
+    pub(crate) best: Option<(Model<S>, Cost)>,
+    /// Iterations since the best score last improved (for stagnation).
+    pub(crate) since_improvement: usize,
     /// The iterations so far.
     pub(crate) history: History,
     /// The minibatch generator, positioned after the last batch drawn.

@@ -24,6 +24,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::error::{Error, Result};
+use crate::solve::linalg::symmetric_eigen;
 use crate::solve::svec::{svec_diagonal, svec_index, svec_len, SQRT_2};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression, SolverSettings};
 use crate::system::{metric_pair_index, MetriplecticSystem};
@@ -132,21 +133,16 @@ fn constant_block<S: MetriplecticSystem>(theta: &[f64], block: &[usize]) -> DMat
     k0
 }
 
-/// The smallest eigenvalue of a symmetric matrix and its eigenvector.
+/// The smallest eigenvalue of a symmetric matrix and its eigenvector (NaN
+/// if the eigensolver fails, which the callers treat as not positive).
 fn smallest_eigen(matrix: DMatrix<f64>) -> (f64, Vec<f64>) {
-    let eigen = matrix.symmetric_eigen();
-    let (index, &value) = eigen
-        .eigenvalues
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.total_cmp(b.1))
-        .unwrap_or((0, &0.0));
-    let vector = if eigen.eigenvectors.ncols() > index {
-        eigen.eigenvectors.column(index).iter().copied().collect()
-    } else {
-        Vec::new()
-    };
-    (value, vector)
+    match symmetric_eigen(&matrix) {
+        Some((values, vectors)) if !values.is_empty() => {
+            (values[0], vectors.column(0).iter().copied().collect())
+        }
+        Some(_) => (0.0, Vec::new()),
+        None => (f64::NAN, vec![f64::NAN; matrix.nrows()]),
+    }
 }
 
 /// The block's eigenvector as a full n-vector.
@@ -166,7 +162,7 @@ fn check_constant_block<S: MetriplecticSystem>(
     let k0 = constant_block::<S>(theta, block);
     let spread = k0.amax();
     let (eigenvalue, direction) = smallest_eigen(k0);
-    if eigenvalue < -EIGENVALUE_TOLERANCE * spread {
+    if eigenvalue.is_nan() || eigenvalue < -EIGENVALUE_TOLERANCE * spread {
         return Err(Error::MetricNotPositive {
             what: what.to_owned(),
             eigenvalue,

@@ -12,6 +12,9 @@ mod file;
 
 pub(crate) use certificate::check_metric;
 
+/// See [`Model::MAX_COEFFICIENT`].
+pub(crate) const MAX_COEFFICIENT: f64 = 1e15;
+
 use crate::error::{check_finite, check_len, Error, Result};
 use crate::system::{with_scratch, MetriplecticSystem};
 
@@ -56,7 +59,7 @@ impl<S: MetriplecticSystem> fmt::Debug for Model<S> {
 impl<S: MetriplecticSystem> Model<S> {
     /// The largest coefficient magnitude a model accepts, 1e15: beyond it
     /// the free energy and its rate overflow `f64` at ordinary states.
-    pub const MAX_COEFFICIENT: f64 = 1e15;
+    pub const MAX_COEFFICIENT: f64 = MAX_COEFFICIENT;
 
     /// A model from entropy coefficients ψ (`S::entropy_coefficient_count()`)
     /// and metric coefficients θ (`S::metric_coefficient_count()`).

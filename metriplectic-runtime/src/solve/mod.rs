@@ -11,6 +11,7 @@
 #[cfg(feature = "clarabel")]
 mod clarabel;
 mod dense;
+pub(crate) mod linalg;
 mod problem;
 mod settings;
 mod status;

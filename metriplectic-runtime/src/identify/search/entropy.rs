@@ -1,7 +1,7 @@
 //! Entropy search (the paper's Problem 3): the L1 linear program in ψ with
 //! the metric K fixed.
 
-use super::{SearchOptions, SearchReport};
+use super::{check_sample_rows, SearchOptions, SearchReport};
 use crate::data::Dataset;
 use crate::error::{check_finite, check_len, Result};
 use crate::identify::cost::{check_dataset, model_cost};
@@ -48,7 +48,7 @@ pub fn entropy_search<S: MetriplecticSystem>(
 
     let p = S::entropy_coefficient_count();
     let start = std::time::Instant::now();
-    let mut problem = L1Problem::new(entropy_regression::<S>(data, metric), 0);
+    let mut problem = L1Problem::new(entropy_regression::<S>(data, metric)?, 0);
     // Box rows: ψₖ ≤ η and −ψₖ ≤ η.
     let mut entries = Vec::with_capacity(2 * p);
     for k in 0..p {
@@ -73,11 +73,12 @@ pub fn entropy_search<S: MetriplecticSystem>(
     })
 }
 
-/// The dense rows M J(x)ᵀ and targets ẋ − M ∇H(x) of every sample.
+/// The dense rows M J(x)ᵀ and targets ẋ − M ∇H(x) of every sample; errors
+/// name the first sample whose rows overflow.
 pub(crate) fn entropy_regression<S: MetriplecticSystem>(
     data: &Dataset,
     metric: &[f64],
-) -> Regression {
+) -> Result<Regression> {
     let n = S::DIM;
     let p = S::entropy_coefficient_count();
     let mut rows = vec![0.0; data.len() * n * p];
@@ -90,12 +91,18 @@ pub(crate) fn entropy_regression<S: MetriplecticSystem>(
         for j in 0..n {
             target[i * n + j] = xdot[j] - drift[j];
         }
+        check_sample_rows(
+            i,
+            x,
+            &rows[i * n * p..(i + 1) * n * p],
+            &target[i * n..(i + 1) * n],
+        )?;
     }
-    Regression {
+    Ok(Regression {
         width: p,
         rows,
         target,
-    }
+    })
 }
 
 #[cfg(test)]

@@ -32,7 +32,10 @@ pub struct JointStep {
 }
 
 /// One joint linearised step from `model` on `data` with trust radius
-/// `radius` (every coefficient moves by at most `radius`).
+/// `radius`: coefficient k moves by at most `radius` times its width, the
+/// larger of its own size and ‖t‖₁/‖Aₖ‖₁, the size it would need to account
+/// alone for the current residual — so that the radius means the same in
+/// any units.
 ///
 /// Errors on invalid input; solver trouble is reported in the status.
 ///
@@ -103,25 +106,29 @@ pub fn joint_step<S: MetriplecticSystem>(
     // Columns [θ′ | d]; the metric regression's target ẋ − Π g is the
     // residual's constant part.
     let regression =
-        metric_regression::<S>(data, psi).with_columns_of(&entropy_regression::<S>(data, theta));
+        metric_regression::<S>(data, psi)?.with_columns_of(&entropy_regression::<S>(data, theta)?);
     let penalised = regression.stacked(&step_penalty(&regression, theta));
     let gram_size = S::DIM * tables.exponents.len();
     let mut problem = L1Problem::new(penalised, SosConstraints::variables(gram_size));
     let sos = add_sos_constraints::<S>(&mut problem, &tables, options.eta, 0, t_len + p)?;
+    // The trust region in units of each coefficient's effect on the data.
+    let widths = trust_widths(&regression, theta, psi);
     let mut entries = Vec::with_capacity(2 * (t_len + p));
     let mut rhs = Vec::with_capacity(2 * (t_len + p));
     for (t, &value) in theta.iter().enumerate() {
+        let reach = radius * widths[t];
         entries.push((2 * t, t, 1.0));
         entries.push((2 * t + 1, t, -1.0));
-        rhs.extend([value + radius, radius - value]);
+        rhs.extend([value + reach, reach - value]);
     }
     for (k, &value) in psi.iter().enumerate() {
+        let reach = radius * widths[t_len + k];
         let row = 2 * (t_len + k);
         entries.push((row, t_len + k, 1.0));
         entries.push((row + 1, t_len + k, -1.0));
         rhs.extend([
-            radius.min(options.eta - value),
-            radius.min(options.eta + value),
+            reach.min(options.eta - value),
+            reach.min(options.eta + value),
         ]);
     }
     problem.constrain(Cone::Nonnegative(rhs.len()), entries, rhs)?;
@@ -149,6 +156,29 @@ pub fn joint_step<S: MetriplecticSystem>(
         predicted,
         report: SearchReport::new(&solution, build_seconds, cost),
     })
+}
+
+/// How far each coefficient of [θ′ | d] may move per unit of trust radius:
+/// the size of coefficient needed to account alone for the residual
+/// (‖t‖₁ / ‖Aₖ‖₁), or the coefficient's own size if larger. So the trust
+/// region means the same in any units: data in SI units with rates of 1e6
+/// need coefficient steps a million times larger than unit-scaled data.
+fn trust_widths(regression: &Regression, theta: &[f64], psi: &[f64]) -> Vec<f64> {
+    let residual: f64 = regression.target.iter().map(|t| t.abs()).sum();
+    let current = theta.iter().chain(psi.iter().map(|_| &0.0));
+    regression
+        .column_l1_norms()
+        .into_iter()
+        .zip(current.zip(theta.iter().chain(psi)))
+        .map(|(norm, (_, value))| {
+            let effect = if norm > 0.0 && residual > 0.0 {
+                residual / norm
+            } else {
+                1.0
+            };
+            effect.max(value.abs()).max(f64::MIN_POSITIVE)
+        })
+        .collect()
 }
 
 /// The proximal rows λₖ (cₖ − cₖ⁽⁰⁾) of the joint step, for columns

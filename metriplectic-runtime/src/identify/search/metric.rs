@@ -3,7 +3,7 @@
 //! that make 0 ⪯ K(x) ⪯ ηI hold for every x (see [`super::sos`]).
 
 use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
-use super::{SearchOptions, SearchReport};
+use super::{check_sample_rows, SearchOptions, SearchReport};
 use crate::data::Dataset;
 use crate::error::{check_finite, check_len, Result};
 use crate::identify::cost::{check_dataset, model_cost};
@@ -64,7 +64,7 @@ pub fn metric_search<S: MetriplecticSystem>(
     let theta_len = S::metric_coefficient_count();
     let gram_size = S::DIM * tables.exponents.len();
     let mut problem = L1Problem::new(
-        metric_regression::<S>(data, entropy),
+        metric_regression::<S>(data, entropy)?,
         SosConstraints::variables(gram_size),
     );
     let sos = add_sos_constraints::<S>(&mut problem, &tables, options.eta, 0, theta_len)?;
@@ -87,11 +87,12 @@ pub fn metric_search<S: MetriplecticSystem>(
     })
 }
 
-/// The dense rows of θ ↦ K(x; θ) g and targets ẋ − Π g of every sample.
+/// The dense rows of θ ↦ K(x; θ) g and targets ẋ − Π g of every sample;
+/// errors name the first sample whose rows overflow.
 pub(crate) fn metric_regression<S: MetriplecticSystem>(
     data: &Dataset,
     entropy: &[f64],
-) -> Regression {
+) -> Result<Regression> {
     let n = S::DIM;
     let width = S::metric_coefficient_count();
     let mut rows = vec![0.0; data.len() * n * width];
@@ -112,12 +113,18 @@ pub(crate) fn metric_regression<S: MetriplecticSystem>(
         for j in 0..n {
             target[i * n + j] = xdot[j] - drift[j];
         }
+        check_sample_rows(
+            i,
+            x,
+            &rows[i * n * width..(i + 1) * n * width],
+            &target[i * n..(i + 1) * n],
+        )?;
     }
-    Regression {
+    Ok(Regression {
         width,
         rows,
         target,
-    }
+    })
 }
 
 #[cfg(test)]

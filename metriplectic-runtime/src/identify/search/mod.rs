@@ -22,14 +22,16 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Result};
 use crate::identify::cost::Cost;
+use crate::model::MAX_COEFFICIENT;
 use crate::solve::{L1Solution, SolveStatus, SolverSettings};
 
 /// Options shared by the three searches.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SearchOptions {
-    /// Coefficient bound η: |ψₖ| ≤ η and 0 ⪯ K(x) ⪯ ηI. Default 20 (the
-    /// 2-D paper system's largest true entropy coefficient is 16).
+    /// Coefficient bound η: |ψₖ| ≤ η and 0 ⪯ K(x) ⪯ ηI, at most 1e15 (the
+    /// largest coefficient a model holds). Default 20 (the 2-D paper
+    /// system's largest true entropy coefficient is 16).
     pub eta: f64,
     /// SOS tables of the metric certificate. Default [`SosBasis::Reduced`].
     pub sos: SosBasis,
@@ -55,14 +57,39 @@ impl SearchOptions {
     }
 }
 
-/// Validates η: finite and positive.
+/// Validates η: positive and at most what a model can hold.
 pub(crate) fn check_eta(eta: f64) -> Result<()> {
-    if eta.is_finite() && eta > 0.0 {
+    if eta.is_finite() && eta > 0.0 && eta <= MAX_COEFFICIENT {
         Ok(())
     } else {
         Err(invalid(
             "eta (coefficient bound)",
-            format!("{eta} is not a finite positive number"),
+            format!(
+                "{eta:e} is not a positive number up to {MAX_COEFFICIENT:e}, the largest \
+                 coefficient a model holds"
+            ),
+        ))
+    }
+}
+
+/// Errors unless the regression rows and targets of sample `index` (state
+/// `x`) are finite: a state so large that its monomials overflow cannot be
+/// fitted.
+pub(crate) fn check_sample_rows(
+    index: usize,
+    x: &[f64],
+    rows: &[f64],
+    target: &[f64],
+) -> Result<()> {
+    if rows.iter().chain(target).all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(invalid(
+            "dataset",
+            format!(
+                "sample {index} (x = {x:?}): its basis functions or vector field overflow; \
+                 rescale the states or drop the sample"
+            ),
         ))
     }
 }

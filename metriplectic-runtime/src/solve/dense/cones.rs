@@ -2,7 +2,9 @@
 //! svec layout): Nesterov–Todd scaling, the Jordan product and division,
 //! step limits and the shift into the interior.
 
-use nalgebra::{Cholesky, DMatrix, DVector};
+use nalgebra::{DMatrix, DVector};
+
+use crate::solve::linalg::{svd, symmetric_eigenvalues, Cholesky};
 
 use crate::solve::svec::{smat, svec_diagonal, svec_into};
 
@@ -165,12 +167,9 @@ impl SideScaling {
 
 /// R = L_s V Λ^{-1/2} and R⁻ᵀ = L_z U Λ^{-1/2} from L_zᵀ L_s = U Λ Vᵀ.
 fn psd_scaling(n: usize, s: &[f64], z: &[f64]) -> Option<PsdScaling> {
-    let ls = Cholesky::new(smat(n, s))?.l();
-    let lz = Cholesky::new(smat(n, z))?.l();
-    let svd = (lz.transpose() * &ls).svd(true, true);
-    let u = svd.u?;
-    let v = svd.v_t?.transpose();
-    let lambda: Vec<f64> = svd.singular_values.iter().copied().collect();
+    let ls = Cholesky::new(&smat(n, s))?.l().clone();
+    let lz = Cholesky::new(&smat(n, z))?.l().clone();
+    let (u, lambda, v) = svd(&(lz.transpose() * &ls))?;
     if lambda
         .iter()
         .any(|&l| l.is_nan() || l <= 0.0 || !l.is_finite())
@@ -283,9 +282,12 @@ pub(super) fn psd_step_limit(lambda: &[f64], d: &[f64]) -> f64 {
             m[(i, j)] /= (lambda[i] * lambda[j]).sqrt();
         }
     }
-    let smallest = m.symmetric_eigenvalues().min();
+    // A failed eigensolver stops the step (NaN ends the iteration).
+    let smallest = symmetric_eigenvalues(&m).map_or(f64::NAN, |values| values[0]);
     if smallest < 0.0 {
         -1.0 / smallest
+    } else if smallest.is_nan() {
+        f64::NAN
     } else {
         f64::INFINITY
     }
@@ -298,7 +300,8 @@ pub(super) fn shift_into_cones(segments: &[Segment], v: &mut DVector<f64>) {
     for segment in segments {
         let range = segment.range();
         let smallest = match segment.psd {
-            Some(n) => smat(n, &v.as_slice()[range]).symmetric_eigenvalues().min(),
+            Some(n) => symmetric_eigenvalues(&smat(n, &v.as_slice()[range]))
+                .map_or(f64::NAN, |values| values[0]),
             None => v.as_slice()[range]
                 .iter()
                 .copied()

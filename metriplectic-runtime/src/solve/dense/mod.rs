@@ -29,6 +29,7 @@
 
 mod cones;
 mod equalities;
+mod equilibrate;
 mod iteration;
 mod newton;
 
@@ -40,7 +41,7 @@ use cones::Segment;
 use equalities::Elimination;
 
 use crate::error::Result;
-use crate::solve::{Cone, L1Problem, L1Solution, SolveStatus, SolverSettings};
+use crate::solve::{Cone, L1Problem, L1Solution, Regression, SolveStatus, SolverSettings};
 
 /// Problem data after the equalities are eliminated.
 struct Reduced {
@@ -60,23 +61,31 @@ struct Reduced {
 pub(crate) fn solve(problem: &L1Problem, settings: &SolverSettings) -> Result<L1Solution> {
     let start = Instant::now();
     let n_vars = problem.variables();
-    let split = split_constraints(problem);
-    let Some(elimination) = equalities::eliminate(&split.e, &split.f, n_vars) else {
-        return Ok(L1Solution {
-            variables: vec![f64::NAN; n_vars],
-            width: problem.regression.width,
-            slacks: problem
-                .constraints
-                .iter()
-                .map(|c| vec![0.0; c.rhs.len()])
-                .collect(),
-            status: SolveStatus::PrimalInfeasible,
-            iterations: 0,
-            setup_seconds: start.elapsed().as_secs_f64(),
-            solve_seconds: 0.0,
-        });
+    let mut split = split_constraints(problem);
+    let mut regression = problem.regression.clone();
+    let scaling = equilibrate::Scaling::equilibrate(&mut regression, &mut split);
+    let elimination = match equalities::eliminate(&split.e, &split.f, n_vars) {
+        Ok(elimination) => elimination,
+        Err(failure) => {
+            return Ok(L1Solution {
+                variables: vec![f64::NAN; n_vars],
+                width: problem.regression.width,
+                slacks: problem
+                    .constraints
+                    .iter()
+                    .map(|c| vec![0.0; c.rhs.len()])
+                    .collect(),
+                status: match failure {
+                    equalities::Failure::Inconsistent => SolveStatus::PrimalInfeasible,
+                    equalities::Failure::Numerical => SolveStatus::NumericalError,
+                },
+                iterations: 0,
+                setup_seconds: start.elapsed().as_secs_f64(),
+                solve_seconds: 0.0,
+            })
+        }
     };
-    let reduced = reduce(problem, split, &elimination, settings.objective_scale);
+    let reduced = reduce(&regression, split, &elimination, settings.objective_scale);
     let setup_seconds = start.elapsed().as_secs_f64();
 
     let start = Instant::now();
@@ -90,10 +99,11 @@ pub(crate) fn solve(problem: &L1Problem, settings: &SolverSettings) -> Result<L1
         .map(|c| vec![0.0; c.rhs.len()])
         .collect();
     for segment in &reduced.segments {
-        slacks[segment.block] = point.sc.as_slice()[segment.range()].to_vec();
+        slacks[segment.block] =
+            scaling.unscale_side(&point.sc.as_slice()[segment.range()], segment.offset);
     }
     Ok(L1Solution {
-        variables: x.as_slice().to_vec(),
+        variables: scaling.unscale_variables(&x),
         width: problem.regression.width,
         slacks,
         status,
@@ -105,7 +115,7 @@ pub(crate) fn solve(problem: &L1Problem, settings: &SolverSettings) -> Result<L1
 
 /// The constraint blocks as dense rows: equalities (E, f) and side cones
 /// (G, h) with their segments.
-struct Split {
+pub(super) struct Split {
     e: DMatrix<f64>,
     f: DVector<f64>,
     g: DMatrix<f64>,
@@ -162,8 +172,12 @@ fn split_constraints(problem: &L1Problem) -> Split {
 }
 
 /// The problem on y after c = c₀ + Z y.
-fn reduce(problem: &L1Problem, split: Split, elimination: &Elimination, weight: f64) -> Reduced {
-    let regression = &problem.regression;
+fn reduce(
+    regression: &Regression,
+    split: Split,
+    elimination: &Elimination,
+    weight: f64,
+) -> Reduced {
     let width = regression.width;
     let r = regression.len();
     let a_full = DMatrix::from_row_slice(r, width, &regression.rows);
@@ -192,7 +206,6 @@ fn reduce(problem: &L1Problem, split: Split, elimination: &Elimination, weight: 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::solve::Regression;
 
     /// A pseudo-random regression (a fixed linear congruential sequence).
     pub(crate) fn random_regression(rows: usize, width: usize, seed: u64) -> Regression {

@@ -2,7 +2,9 @@
 //! equations on y: Aᵀ D̃ A + Gᵀ (WᵀW)⁻¹ G, factorised once per iteration and
 //! solved for the predictor and the corrector.
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use nalgebra::{DMatrix, DVector};
+
+use crate::solve::linalg::{gram, Cholesky};
 
 use super::cones::SideScaling;
 use super::Reduced;
@@ -47,7 +49,7 @@ pub(super) struct Newton<'a> {
     /// z/s of the two L1 orthants.
     d1: DVector<f64>,
     d2: DVector<f64>,
-    schur: Cholesky<f64, Dyn>,
+    schur: Cholesky,
 }
 
 impl<'a> Newton<'a> {
@@ -156,7 +158,7 @@ fn schur_complement(
     for mut column in scaled.column_iter_mut() {
         column.component_mul_assign(&weights);
     }
-    let mut schur = scaled.tr_mul(&scaled);
+    let mut schur = gram(&scaled);
     if problem.g.nrows() > 0 {
         let mut hg = DMatrix::zeros(problem.g.nrows(), k);
         for (j, column) in problem.g.column_iter().enumerate() {
@@ -170,7 +172,7 @@ fn schur_complement(
 
 /// Cholesky of the Schur complement; on breakdown retried with a small
 /// diagonal shift (a rank-deficient regression with an unconstrained direction).
-fn factorise(schur: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
+fn factorise(schur: DMatrix<f64>) -> Option<Cholesky> {
     let k = schur.nrows();
     let scale = schur.diagonal().amax().max(f64::MIN_POSITIVE);
     let mut shift = 0.0;
@@ -179,7 +181,7 @@ fn factorise(schur: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
         for i in 0..k {
             shifted[(i, i)] += shift;
         }
-        if let Some(factor) = Cholesky::new(shifted) {
+        if let Some(factor) = Cholesky::new(&shifted) {
             return Some(factor);
         }
         shift = if shift == 0.0 {

@@ -1,0 +1,155 @@
+//! What the data cannot determine: typed warnings an identification returns
+//! instead of silence when the samples are too few or too alike for the
+//! coefficients sought.
+
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+use super::config::IdentifyConfig;
+use super::search::{entropy_regression, metric_regression};
+use crate::data::Dataset;
+use crate::error::Result;
+use crate::model::Model;
+use crate::solve::Regression;
+use crate::system::MetriplecticSystem;
+
+/// Singular values below this fraction of the largest count as zero.
+const RANK_TOLERANCE: f64 = 1e-12;
+/// Largest rows × columns² for which the rank is computed (an SVD).
+const RANK_WORK_LIMIT: f64 = 2e9;
+
+/// A coefficient block of a model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CoefficientBlock {
+    /// The entropy coefficients ψ.
+    Entropy,
+    /// The metric coefficients θ the certificate leaves free.
+    Metric,
+}
+
+/// Something the data cannot determine about the model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum IdentifyWarning {
+    /// Fewer equations (samples × state components) than unknown
+    /// coefficients: many models fit the data equally.
+    Underdetermined {
+        /// Samples × state components.
+        equations: usize,
+        /// Entropy coefficients plus the metric coefficients left free.
+        unknowns: usize,
+    },
+    /// The samples determine only `rank` independent combinations of a
+    /// block's `coefficients` (the samples repeat, lie on a low-dimensional
+    /// set, or are too small for the basis's degree).
+    RankDeficient {
+        /// Which coefficients.
+        block: CoefficientBlock,
+        /// Numerical rank of the block's regression on the data.
+        rank: usize,
+        /// Number of coefficients in the block.
+        coefficients: usize,
+    },
+}
+
+impl std::fmt::Display for IdentifyWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Underdetermined {
+                equations,
+                unknowns,
+            } => write!(
+                f,
+                "{equations} equations for {unknowns} unknown coefficients: the data cannot determine the model"
+            ),
+            Self::RankDeficient {
+                block,
+                rank,
+                coefficients,
+            } => write!(
+                f,
+                "the data determine only {rank} of the {coefficients} {} coefficients",
+                match block {
+                    CoefficientBlock::Entropy => "entropy",
+                    CoefficientBlock::Metric => "free metric",
+                }
+            ),
+        }
+    }
+}
+
+/// The warnings for `model` identified from `data`.
+pub(crate) fn data_warnings<S: MetriplecticSystem>(
+    data: &Dataset,
+    model: &Model<S>,
+    config: &IdentifyConfig,
+) -> Result<Vec<IdentifyWarning>> {
+    let tables = config.search.sos.tables::<S>();
+    let free: Vec<usize> = (0..S::DIM * (S::DIM + 1) / 2)
+        .flat_map(|pair| {
+            let basis = S::METRIC_EXPONENTS.len();
+            tables
+                .matching
+                .iter()
+                .enumerate()
+                .filter(|(_, pairs)| !pairs.is_empty())
+                .map(move |(alpha, _)| pair * basis + alpha)
+        })
+        .collect();
+    let p = S::entropy_coefficient_count();
+    let equations = data.len() * S::DIM;
+    let mut warnings = Vec::new();
+    if equations < p + free.len() {
+        warnings.push(IdentifyWarning::Underdetermined {
+            equations,
+            unknowns: p + free.len(),
+        });
+    }
+    let entropy = entropy_regression::<S>(data, model.metric_coefficients())?;
+    if let Some(rank) = numerical_rank(&entropy, &(0..p).collect::<Vec<_>>()) {
+        if rank < p {
+            warnings.push(IdentifyWarning::RankDeficient {
+                block: CoefficientBlock::Entropy,
+                rank,
+                coefficients: p,
+            });
+        }
+    }
+    let metric = metric_regression::<S>(data, model.entropy_coefficients())?;
+    if let Some(rank) = numerical_rank(&metric, &free) {
+        if rank < free.len() {
+            warnings.push(IdentifyWarning::RankDeficient {
+                block: CoefficientBlock::Metric,
+                rank,
+                coefficients: free.len(),
+            });
+        }
+    }
+    Ok(warnings)
+}
+
+/// Numerical rank of the regression's `columns`, or `None` when the SVD
+/// would cost more than the check is worth.
+fn numerical_rank(regression: &Regression, columns: &[usize]) -> Option<usize> {
+    let rows = regression.len();
+    let k = columns.len();
+    if k == 0 {
+        return Some(0);
+    }
+    if rows as f64 * (k * k) as f64 > RANK_WORK_LIMIT {
+        return None;
+    }
+    let width = regression.width;
+    let matrix = DMatrix::from_fn(rows, k, |i, j| regression.rows[i * width + columns[j]]);
+    let singular = crate::solve::linalg::singular_values(&matrix)?;
+    let largest = singular.first().copied().unwrap_or(0.0);
+    if largest <= 0.0 {
+        return Some(0);
+    }
+    Some(
+        singular
+            .iter()
+            .filter(|&&s| s > RANK_TOLERANCE * largest)
+            .count(),
+    )
+}

@@ -1,0 +1,177 @@
+//! Badly scaled but sensible data solve: states or rates of 1e-6 and 1e6
+//! (SI units) identify as well as unit-scaled data, and what cannot be
+//! solved is refused with an error that names the quantity.
+
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{
+    synthesize, InitialStates, IterationScheme, SampleTimes, SearchOptions, StopReason,
+    SynthesisOptions, TrustRegion,
+};
+
+metriplectic! {
+    /// A damped oscillator whose states live at the scale 1e-6.
+    pub struct Micro;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (q^2 + p^2);
+    entropy degree 4;
+    metric degree 0;
+    reference {
+        entropy = -0.25 * (q^2 + p^2);
+        metric = [[1, 0], [0, 1]];
+    }
+}
+
+metriplectic! {
+    /// A stiff oscillator (rates of 1e6): a large spring constant.
+    pub struct Stiff;
+    state (q, p);
+    const k = 1000000;
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * k * (q^2 + p^2);
+    entropy degree 4;
+    metric degree 0;
+    reference {
+        entropy = -0.25 * k * (q^2 + p^2);
+        metric = [[1, 0], [0, 1]];
+    }
+}
+
+/// Trajectories of the reference model from states of size `scale`.
+fn data<S: MetriplecticSystem>(scale: f64, duration: f64) -> Dataset {
+    let truth = Model::<S>::reference().unwrap();
+    synthesize(
+        &truth,
+        &SynthesisOptions {
+            trajectories: 20,
+            duration,
+            seed: 5,
+            ..SynthesisOptions::new(
+                InitialStates::cube(2, scale),
+                SampleTimes::LogUniform {
+                    count: 20,
+                    first: duration * 1e-3,
+                },
+            )
+        },
+    )
+    .unwrap()
+    .train
+}
+
+fn relative_field_error<S: MetriplecticSystem>(model: &Model<S>, data: &Dataset) -> f64 {
+    let truth = Model::<S>::reference().unwrap();
+    let (mut diff, mut norm) = (0.0, 0.0);
+    let (mut f, mut g) = (vec![0.0; S::DIM], vec![0.0; S::DIM]);
+    for (x, _) in data.iter() {
+        model.vector_field(x, &mut f).unwrap();
+        truth.vector_field(x, &mut g).unwrap();
+        for j in 0..S::DIM {
+            diff += (f[j] - g[j]).powi(2);
+            norm += g[j].powi(2);
+        }
+    }
+    (diff / norm).sqrt()
+}
+
+fn joint() -> IdentifyConfig {
+    IdentifyConfig {
+        max_iterations: 20,
+        scheme: IterationScheme::AlternatingThenJoint(TrustRegion::default()),
+        ..IdentifyConfig::default()
+    }
+}
+
+#[test]
+fn states_of_a_millionth_identify() {
+    let data = data::<Micro>(1e-6, 5.0);
+    let result = identify::<Micro>(&data, &joint()).unwrap();
+    let error = relative_field_error(&result.model, &data);
+    println!("{:?}, relative error {error:e}", result.stop_reason);
+    assert!(error < 1e-6, "relative field error {error:e}");
+    assert_eq!(result.stop_reason, StopReason::Converged);
+}
+
+#[test]
+fn rates_of_a_million_identify() {
+    let data = data::<Stiff>(1.0, 5e-6);
+    let config = IdentifyConfig {
+        search: SearchOptions {
+            eta: 1e7,
+            ..SearchOptions::default()
+        },
+        ..joint()
+    };
+    let result = identify::<Stiff>(&data, &config).unwrap();
+    let error = relative_field_error(&result.model, &data);
+    println!("{:?}, relative error {error:e}", result.stop_reason);
+    assert!(error < 1e-6, "relative field error {error:e}");
+}
+
+#[test]
+fn tiny_data_do_not_converge_by_an_absolute_tolerance() {
+    // The same data scaled by 1e-12 have costs far below any absolute
+    // tolerance from the start: convergence must be judged relative to
+    // the data's scale, so one iteration from ψ = 0 does not "converge".
+    let data = data::<Micro>(1e-6, 5.0);
+    let states: Vec<f64> = data.states().iter().map(|v| v * 1e-12).collect();
+    let rates: Vec<f64> = data.derivatives().iter().map(|v| v * 1e-12).collect();
+    let tiny = Dataset::from_flat(2, states, rates).unwrap();
+    let config = IdentifyConfig {
+        max_iterations: 1,
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<Micro>(&tiny, &config).unwrap();
+    assert_ne!(result.stop_reason, StopReason::Converged);
+}
+
+#[test]
+fn what_cannot_be_solved_is_refused_by_name() {
+    let data = data::<Micro>(1.0, 1.0);
+    // One state of 1e300: its degree-4 features overflow.
+    let mut states = data.states().to_vec();
+    states[6] = 1e300;
+    let broken = Dataset::from_flat(2, states, data.derivatives().to_vec()).unwrap();
+    let err = identify::<Micro>(&broken, &IdentifyConfig::default()).unwrap_err();
+    let message = err.to_string();
+    assert!(message.contains("sample 3"), "{message}");
+    // η beyond what a model can hold.
+    let config = IdentifyConfig {
+        search: SearchOptions {
+            eta: 1e300,
+            ..SearchOptions::default()
+        },
+        ..IdentifyConfig::default()
+    };
+    let err = identify::<Micro>(&data, &config).unwrap_err();
+    let message = err.to_string();
+    assert!(
+        message.contains("eta") && message.contains("1e300"),
+        "{message}"
+    );
+}
+
+/// The entropy search alone (the metric fixed at the truth) is as accurate
+/// for states of 1e-6 as for states of 1: equilibration makes the solver's
+/// tolerances mean the same in any units.
+#[test]
+fn the_entropy_search_is_equally_accurate_in_any_units() {
+    let truth = Model::<Micro>::reference().unwrap();
+    for scale in [1.0, 1e-3, 1e-6] {
+        let data = data::<Micro>(scale, 5.0);
+        let fit = metriplectic_runtime::entropy_search::<Micro>(
+            &data,
+            truth.metric_coefficients(),
+            &SearchOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(fit.report.status, metriplectic_runtime::SolveStatus::Solved);
+        let model =
+            Model::<Micro>::new(fit.coefficients, truth.metric_coefficients().to_vec()).unwrap();
+        let error = relative_field_error(&model, &data);
+        assert!(
+            error < 1e-12,
+            "states of {scale:e}: relative field error {error:e}"
+        );
+    }
+}

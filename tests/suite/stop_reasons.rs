@@ -1,0 +1,83 @@
+//! Honest stop reasons: `Converged` only for a model that fits the data to
+//! a tolerance relative to their scale, and typed warnings when the data
+//! cannot determine the model.
+
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{CoefficientBlock, IdentifyWarning, StopReason};
+
+use crate::common::{linear2d_data, Linear2d};
+
+fn relative_error(model: &Model<Linear2d>, data: &Dataset) -> f64 {
+    let truth = Model::<Linear2d>::reference().unwrap();
+    let (mut diff, mut norm) = (0.0, 0.0);
+    let (mut f, mut g) = ([0.0; 2], [0.0; 2]);
+    for (x, _) in data.iter() {
+        model.vector_field(x, &mut f).unwrap();
+        truth.vector_field(x, &mut g).unwrap();
+        for j in 0..2 {
+            diff += (f[j] - g[j]).powi(2);
+            norm += g[j].powi(2);
+        }
+    }
+    (diff / norm).sqrt()
+}
+
+#[test]
+fn one_sample_is_reported_underdetermined() {
+    let data = linear2d_data(1, 3);
+    let result = identify::<Linear2d>(&data, &IdentifyConfig::default()).unwrap();
+    assert!(
+        result
+            .warnings
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::Underdetermined { equations: 2, .. })),
+        "{:?}",
+        result.warnings
+    );
+}
+
+#[test]
+fn copies_of_one_sample_are_reported_rank_deficient() {
+    let one = linear2d_data(1, 4);
+    let indices = vec![0; 200];
+    let data = one.select(&indices).unwrap();
+    let result = identify::<Linear2d>(&data, &IdentifyConfig::default()).unwrap();
+    let entropy = result.warnings.iter().find_map(|w| match w {
+        IdentifyWarning::RankDeficient {
+            block: CoefficientBlock::Entropy,
+            rank,
+            coefficients,
+        } => Some((*rank, *coefficients)),
+        _ => None,
+    });
+    let (rank, coefficients) = entropy.expect("an entropy rank warning");
+    assert!(rank <= 2 && coefficients == 44, "{rank} of {coefficients}");
+    assert!(result.warnings.iter().all(|w| !w.to_string().is_empty()));
+}
+
+#[test]
+fn a_batch_of_one_does_not_converge_on_its_own_fit() {
+    // Each iteration fits one sample exactly; only a model that fits all
+    // the data may be reported converged.
+    let data = linear2d_data(200, 5);
+    let config = IdentifyConfig {
+        batch_size: Some(1),
+        max_iterations: 5,
+        polish: false,
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    let error = relative_error(&result.model, &data);
+    if result.stop_reason == StopReason::Converged {
+        assert!(error < 1e-6, "converged with relative error {error:e}");
+    }
+}
+
+#[test]
+fn well_posed_data_have_no_warnings() {
+    let data = linear2d_data(300, 6);
+    let result = identify::<Linear2d>(&data, &IdentifyConfig::default()).unwrap();
+    assert!(result.warnings.is_empty(), "{:?}", result.warnings);
+    assert_eq!(result.stop_reason, StopReason::Converged);
+    assert!(relative_error(&result.model, &data) < 1e-8);
+}
