@@ -216,6 +216,7 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
         &[1, 1],
         &[0, 2],
     ];
+    /// (k, j, a, i): ∂φ_k/∂x_j = a · monomial i.
     const ENTROPY_JACOBIAN: &'static [::metriplectic_runtime::JacobianTerm] = &[
         (0, 0, 1, 0),
         (1, 1, 1, 0),

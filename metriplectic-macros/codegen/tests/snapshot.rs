@@ -61,6 +61,26 @@ fn colliding_monomial_names_fall_back() {
     );
 }
 
+/// Small systems get a straight-line `entropy_gradient`; past the Jacobian
+/// size where compile time outgrows the gain, the trait's table walk stays.
+#[test]
+fn straight_line_gradient_only_below_the_threshold() {
+    let small = expand(linear_2d());
+    assert!(small.contains("fn entropy_gradient("), "{small}");
+    // 5 variables, degree 8: 3960 Jacobian entries.
+    let large = expand(quote! {
+        struct Large;
+        state (a, b, c, d, e);
+        poisson = [[0, 0, 0, 0, 0], [0, 0, 0, 0, 0], [0, 0, 0, 0, 0], [0, 0, 0, 0, 0],
+                   [0, 0, 0, 0, 0]];
+        hamiltonian = a^2;
+        entropy degree 8;
+        metric degree 0;
+    });
+    assert!(!large.contains("fn entropy_gradient("));
+    assert!(large.contains("fn monomials("));
+}
+
 /// What users see under `cargo expand`; `UPDATE_SNAPSHOTS=1` rewrites it.
 #[test]
 fn linear_2d_expansion_matches_snapshot() {

@@ -61,6 +61,7 @@ pub fn trait_impl(
             const METRIC_DEGREE: #u32 = #s;
             const ENTROPY_EXPONENTS: &'static [&'static [#u32]] = #entropy_exponents;
             const METRIC_EXPONENTS: &'static [&'static [#u32]] = #metric_exponents;
+            /// (k, j, a, i): ∂φ_k/∂x_j = a · monomial i.
             const ENTROPY_JACOBIAN: &'static [::metriplectic_runtime::JacobianTerm] = #jacobian;
             const SOS_FULL: ::metriplectic_runtime::SosTables = #sos_full;
             const SOS_REDUCED: ::metriplectic_runtime::SosTables = #sos_reduced;
