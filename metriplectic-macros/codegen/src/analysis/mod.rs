@@ -147,7 +147,10 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
 
 #[cfg(test)]
 mod tests {
+    use proc_macro2::{Delimiter, Group, TokenStream, TokenTree};
     use quote::quote;
+
+    use super::*;
 
     fn messages(tokens: proc_macro2::TokenStream) -> Vec<String> {
         crate::try_expand(tokens)
@@ -311,5 +314,34 @@ mod tests {
             overflow[0].contains("could not verify exactly"),
             "{overflow:?}"
         );
+    }
+
+    /// What `macro_rules!` forwards: `$vis:vis`, `$e:expr` and
+    /// `$l:literal` fragments arrive in invisible groups.
+    #[test]
+    fn macro_rules_fragments() {
+        let invisible = |tokens: TokenStream| TokenTree::Group(Group::new(Delimiter::None, tokens));
+        let vis = invisible(quote!(pub(crate)));
+        let sum = invisible(quote!(q + p));
+        let degree = invisible(quote!(4));
+        let matrix = invisible(quote!([[0, 1], [-1, 0]]));
+        let tokens = quote! {
+            #vis struct S;
+            state (q, p);
+            poisson = #matrix;
+            hamiltonian = 2 * #sum;
+            entropy degree #degree;
+            metric degree 2;
+        };
+        let mut diagnostics = Diagnostics::new();
+        let def = crate::parse::parse(tokens, &mut diagnostics);
+        let system = analyse(&def, &mut diagnostics);
+        assert_eq!(diagnostics.count(), 0, "{:?}", diagnostics.into_error());
+        let system = system.expect("valid");
+        let names = ["q".to_string(), "p".to_string()];
+        // The fragment is one operand: 2(q + p), not 2q + p.
+        assert_eq!(system.hamiltonian.display(&names).to_string(), "2*q + 2*p");
+        assert_eq!(system.bases.entropy_degree, 4);
+        assert!(matches!(system.vis, Visibility::Restricted(_)));
     }
 }

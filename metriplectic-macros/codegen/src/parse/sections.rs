@@ -137,9 +137,7 @@ fn section(
         "reference" => &mut seen.reference,
         "const" => {
             cursor.next();
-            if let Some(constant) = const_section(cursor, diagnostics)? {
-                def.consts.push(constant);
-            }
+            def.consts.push(const_section(cursor, diagnostics)?);
             return Ok(());
         }
         other => {
@@ -191,7 +189,7 @@ fn section(
             }
         }
         "entropy" | "metric" => {
-            let degree = degree_section(cursor, keyword)?;
+            let degree = degree_section(cursor, keyword, diagnostics)?;
             if first {
                 if word == "entropy" {
                     def.entropy_degree = Some(degree);
@@ -201,7 +199,7 @@ fn section(
             }
         }
         _ => {
-            let reference = reference_section(cursor, keyword, diagnostics)?;
+            let reference = reference_section(cursor, diagnostics)?;
             if first {
                 def.reference = Some(reference);
             }
@@ -238,7 +236,13 @@ fn header(
     };
 
     let mut vis_tokens = TokenStream::new();
-    if cursor.peek_word("pub") {
+    let fragment = matches!(cursor.peek(), Some(TokenTree::Group(g))
+        if g.delimiter() == Delimiter::None
+            && matches!(g.stream().into_iter().next(), Some(TokenTree::Ident(i)) if i == "pub"));
+    if fragment {
+        // `pub(crate)` passed as a `$vis:vis` fragment.
+        vis_tokens.extend(cursor.next());
+    } else if cursor.peek_word("pub") {
         vis_tokens.extend(cursor.next());
         if let Some(TokenTree::Group(group)) = cursor.peek() {
             if group.delimiter() == Delimiter::Parenthesis {
@@ -362,10 +366,7 @@ fn state_section(
 }
 
 /// `const name = expr;` after `const`.
-fn const_section(
-    cursor: &mut Cursor,
-    diagnostics: &mut Diagnostics,
-) -> syn::Result<Option<ConstDef>> {
+fn const_section(cursor: &mut Cursor, diagnostics: &mut Diagnostics) -> syn::Result<ConstDef> {
     let name = match cursor.peek() {
         Some(TokenTree::Ident(name)) if is_identifier(name) => name.clone(),
         _ => {
@@ -377,7 +378,7 @@ fn const_section(
     };
     cursor.next();
     let value = expression_section(cursor, &name, diagnostics)?;
-    Ok(Some(ConstDef { name, value }))
+    Ok(ConstDef { name, value })
 }
 
 /// `= expr;` after `keyword`.
@@ -466,7 +467,11 @@ fn matrix(tokens: &[TokenTree], end: Span, diagnostics: &mut Diagnostics) -> Opt
 }
 
 /// `degree N;` after `entropy` or `metric`.
-fn degree_section(cursor: &mut Cursor, keyword: &Ident) -> syn::Result<Degree> {
+fn degree_section(
+    cursor: &mut Cursor,
+    keyword: &Ident,
+    diagnostics: &mut Diagnostics,
+) -> syn::Result<Degree> {
     let example = format!("write `{keyword} degree 4;`");
     match cursor.peek() {
         Some(TokenTree::Ident(word)) if word == "degree" => {
@@ -497,23 +502,13 @@ fn degree_section(cursor: &mut Cursor, keyword: &Ident) -> syn::Result<Degree> {
         }
     };
     cursor.next();
-    let value = literal
-        .base10_parse::<u32>()
-        .ok()
-        .filter(|_| literal.suffix().is_empty())
-        .ok_or_else(|| {
-            syn::Error::new(
-                literal.span(),
-                format!("the degree is a small non-negative integer without suffix: {example}"),
-            )
-        })?;
-    if !cursor.peek_punct_at(0, ';') {
-        return Err(syn::Error::new(
-            cursor.next_span(),
-            format!("expected `;` after the degree: {example}"),
-        ));
-    }
-    cursor.next();
+    let value = literal.base10_parse::<u32>().map_err(|_| {
+        syn::Error::new(
+            literal.span(),
+            format!("the degree is a small non-negative integer: {example}"),
+        )
+    })?;
+    cursor.semicolon_after(literal.span(), "the degree", diagnostics);
     Ok(Degree {
         value,
         span: literal.span(),
@@ -521,11 +516,7 @@ fn degree_section(cursor: &mut Cursor, keyword: &Ident) -> syn::Result<Degree> {
 }
 
 /// `{ entropy = …; metric = [[…]]; }` after `reference`.
-fn reference_section(
-    cursor: &mut Cursor,
-    keyword: &Ident,
-    diagnostics: &mut Diagnostics,
-) -> syn::Result<Reference> {
+fn reference_section(cursor: &mut Cursor, diagnostics: &mut Diagnostics) -> syn::Result<Reference> {
     let items = "a reference holds `entropy = …;` and `metric = [[…]];`";
     let group = match cursor.peek() {
         Some(TokenTree::Group(g)) if g.delimiter() == Delimiter::Brace => g.clone(),
@@ -538,7 +529,6 @@ fn reference_section(
     };
     cursor.next();
     let mut inner = Cursor::new(group.stream(), Level::Reference);
-    let _ = keyword;
     let mut reference = Reference {
         entropy: None,
         metric: None,
@@ -621,6 +611,27 @@ enum Level {
     Reference,
 }
 
+/// An invisible group (a `macro_rules!` fragment such as `$degree:literal`)
+/// around a single token is that token. Invisible groups of several tokens
+/// stay groups: an `$e:expr` fragment `q + p` is one operand, which the
+/// expression parser treats like parentheses.
+fn look_through(token: TokenTree) -> TokenTree {
+    let mut token = token;
+    loop {
+        let TokenTree::Group(group) = &token else {
+            return token;
+        };
+        if group.delimiter() != Delimiter::None {
+            return token;
+        }
+        let mut inner = group.stream().into_iter();
+        match (inner.next(), inner.next()) {
+            (Some(only), None) => token = only,
+            _ => return token,
+        }
+    }
+}
+
 /// The tokens of a section's right-hand side and what ended it.
 struct Body {
     tokens: Vec<TokenTree>,
@@ -638,21 +649,7 @@ struct Cursor {
 
 impl Cursor {
     fn new(input: TokenStream, level: Level) -> Self {
-        // Invisible groups (from `macro_rules!` fragments) at the top level
-        // are looked through.
-        let mut tokens = Vec::new();
-        let mut stack = vec![input.into_iter()];
-        while let Some(iter) = stack.last_mut() {
-            match iter.next() {
-                None => {
-                    stack.pop();
-                }
-                Some(TokenTree::Group(g)) if g.delimiter() == Delimiter::None => {
-                    stack.push(g.stream().into_iter());
-                }
-                Some(token) => tokens.push(token),
-            }
-        }
+        let tokens = input.into_iter().map(look_through).collect();
         Self {
             tokens,
             position: 0,
