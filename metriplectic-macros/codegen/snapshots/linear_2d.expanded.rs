@@ -44,6 +44,7 @@ mod __metriplectic_Oscillator {
         };
         out.copy_from_slice(&[0.0, 1.0, -1.0, 0.0]);
     }
+    #[inline]
     pub(super) fn monomials(x: &[f64], out: &mut [f64]) {
         let &[q, p] = x else {
             ::core::panic!("Oscillator: the state has 2 entries (q, p), got {}", x.len())
@@ -119,11 +120,39 @@ mod __metriplectic_Oscillator {
     pub(super) fn entropy_gradient(x: &[f64], psi: &[f64], grad: &mut [f64]) {
         ::core::assert_eq!(psi.len(), 44, "Oscillator: entropy coefficients");
         ::core::assert_eq!(grad.len(), 2, "Oscillator: entropy gradient");
-        let mut mu = [0.0; 36];
-        monomials(x, &mut mu);
-        let [_, q, p, q2, q_p, p2, q3, q2_p, q_p2, p3, q4, q3_p, q2_p2, q_p3, p4, q5,
-        q4_p, q3_p2, q2_p3, q_p4, p5, q6, q5_p, q4_p2, q3_p3, q2_p4, q_p5, p6, q7, q6_p,
-        q5_p2, q4_p3, q3_p4, q2_p5, q_p6, p7] = mu;
+        let &[q, p] = x else {
+            ::core::panic!("Oscillator: the state has 2 entries (q, p), got {}", x.len())
+        };
+        let (q2, q_p, p2) = (q * q, q * p, p * p);
+        let (q3, q2_p, q_p2, p3) = (q * q2, q * q_p, q * p2, p * p2);
+        let (q4, q3_p, q2_p2, q_p3, p4) = (q * q3, q * q2_p, q * q_p2, q * p3, p * p3);
+        let (q5, q4_p, q3_p2, q2_p3, q_p4, p5) = (
+            q * q4,
+            q * q3_p,
+            q * q2_p2,
+            q * q_p3,
+            q * p4,
+            p * p4,
+        );
+        let (q6, q5_p, q4_p2, q3_p3, q2_p4, q_p5, p6) = (
+            q * q5,
+            q * q4_p,
+            q * q3_p2,
+            q * q2_p3,
+            q * q_p4,
+            q * p5,
+            p * p5,
+        );
+        let (q7, q6_p, q5_p2, q4_p3, q3_p4, q2_p5, q_p6, p7) = (
+            q * q6,
+            q * q5_p,
+            q * q4_p2,
+            q * q3_p3,
+            q * q2_p4,
+            q * q_p5,
+            q * p6,
+            p * p6,
+        );
         grad[0] = psi[0] + 2.0 * psi[2] * q + psi[3] * p + 3.0 * psi[5] * q2
             + 2.0 * psi[6] * q_p + psi[7] * p2 + 4.0 * psi[9] * q3 + 3.0 * psi[10] * q2_p
             + 2.0 * psi[11] * q_p2 + psi[12] * p3 + 5.0 * psi[14] * q4

@@ -57,16 +57,6 @@ impl Bases {
             monomials,
         }
     }
-
-    /// Number of monomials of degree below r: all the entropy's derivatives
-    /// read.
-    pub fn derivative_len(&self) -> usize {
-        let r = self.entropy_degree;
-        self.monomials
-            .iter()
-            .take_while(|e| e.iter().sum::<u32>() < r)
-            .count()
-    }
 }
 
 /// Compares two exponent vectors in graded lexicographic order.

@@ -4,7 +4,7 @@
 //!   macro call) inside the `#[no_implicit_prelude]` evaluation module,
 //!   where no item of the caller's scope, no import and no prelude name is
 //!   visible: `E`, `None` or a constant's name always binds a variable.
-//! * The generated locals (`x`, `out`, `psi`, `grad`, `sink`, `mu`) and the
+//! * The generated locals (`x`, `out`, `psi`, `grad`, `sink`) and the
 //!   monomial bindings are spanned `Span::mixed_site()`: macro_rules-style
 //!   hygiene, so a state variable of the same name is a different variable.
 //! * The trait impl lives outside the module (so that the macro works inside

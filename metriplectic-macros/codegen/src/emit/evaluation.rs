@@ -19,6 +19,14 @@ use crate::analysis::System;
 use crate::bases;
 use crate::polynomial::Polynomial;
 
+/// Largest number of monomials for which `monomials` is `#[inline]`: the
+/// provided methods call it right after asserting the slice's length, so
+/// once inlined the length checks of every degree fold away and only stores
+/// remain (measured, 2-D paper system: metric features 16.5 → 5 ns). Large
+/// bases are not inlined anyway, and the hint would copy them into every
+/// codegen unit for nothing.
+pub const INLINE_MONOMIALS_MAX: usize = 512;
+
 /// Sums of at most this many terms per statement: long chains of `+` nest
 /// as deeply as they are long in rustc's expression tree.
 const TERMS_PER_SUM: usize = 16;
@@ -162,6 +170,11 @@ fn monomials(system: &System, binding: &[Ident]) -> TokenStream {
         "{}: {count} monomials at most, {{}} asked for",
         system.name.unraw()
     );
+    let inline = if count <= INLINE_MONOMIALS_MAX {
+        quote!(#[inline])
+    } else {
+        TokenStream::new()
+    };
     let count = int(count);
     let state = &system.state;
     // (bindings of a degree, push of its values)
@@ -175,6 +188,7 @@ fn monomials(system: &System, binding: &[Ident]) -> TokenStream {
         .iter()
         .map(|(lets, push)| quote!(#lets if #push { return; }));
     quote! {
+        #inline
         pub(super) fn monomials(#x: &[f64], #out: &mut [f64]) {
             #destructure
             ::core::assert!(#out.len() <= #count, #message, #out.len());
@@ -189,23 +203,20 @@ fn monomials(system: &System, binding: &[Ident]) -> TokenStream {
 /// ∇S(x) = J(x)ᵀψ as straight-line sums, one per variable, over the named
 /// monomials of degree < r: `grad[0] = psi[0] + 2.0 * psi[2] * q + …`.
 fn entropy_gradient(system: &System, binding: &[Ident], jacobian: &[JacobianTerm]) -> TokenStream {
-    let (x, psi, grad, mu) = (local("x"), local("psi"), local("grad"), local("mu"));
+    let (x, psi, grad) = (local("x"), local("psi"), local("grad"));
     let n = system.state.len();
     let name = system.name.unraw();
-    let derivative_len = system.bases.derivative_len();
-    // μ₀ = 1 is never named; for r = 1 nothing else is read.
-    let monomials = if derivative_len > 1 {
-        let names = binding[1..derivative_len].iter();
-        let len = int(derivative_len);
-        quote! {
-            let mut #mu = [0.0; #len];
-            monomials(#x, &mut #mu);
-            let [_, #(#names),*] = #mu;
-        }
-    } else {
-        // The state's length is still checked, as everywhere else.
-        let destructure = bindings::destructure(system, &vec![false; n]);
-        quote!(#destructure)
+    // The monomials of degree < r, computed here rather than through
+    // `monomials`: in registers, not through a slice (measured 2-3x faster).
+    // For r = 1 only the constant is read, and no variable.
+    let r = system.bases.entropy_degree;
+    let destructure = bindings::destructure(system, &vec![r > 1; n]);
+    let lets = monomial_lets(system, binding, r.saturating_sub(1))
+        .into_iter()
+        .map(|(lets, _)| lets);
+    let monomials = quote! {
+        #destructure
+        #(#lets)*
     };
     let mut terms: Vec<Vec<TokenStream>> = vec![Vec::new(); n];
     for term in jacobian {

@@ -26,14 +26,16 @@ use crate::analysis::System;
 /// `entropy_gradient`; larger systems keep the trait's provided table walk
 /// over `ENTROPY_JACOBIAN`.
 ///
-/// Measured (release, 2-core EPYC, per call; compile time of a test crate
-/// with only that system): the straight-line gradient is 2.0× faster than
-/// the table walk at 72 entries (2-D paper system), 2.3× at 168 (SO(3)),
-/// 2.9× at 504, 1.9× at 1320, 1.55× at 2310 (+0.55 s to compile) and 1.4×
-/// at 10296 (the 6-state, degree-8 system of `tests/large_system.rs`, where
-/// it costs +5 s of a 7.5 s release build and 400 KB of machine code). The
-/// gain shrinks as the code outgrows the instruction cache while its
-/// compile time grows linearly, so it stops a little below the 2310 point.
+/// Measured against the table walk (release, per call, on a 2-core EPYC
+/// shared with other builds, so ranges over repeated runs): 4.7–7.4× faster
+/// at 72 entries (2-D paper system), 3.3–3.7× at 168 (SO(3)), 2.8–4.4× at
+/// 504, 1.6–2.8× from 1260 to 1980 entries; at 2310 anywhere from 0.7× to
+/// 2.2×, and at 10296 (the 6-state, degree-8 system of
+/// `tests/large_system.rs`) 0.5–0.9×, slower than the walk, as thousands of
+/// live monomials spill out of the registers. Its compile time grows
+/// linearly meanwhile: +0.5 s of release build at 2310 entries, +5 s of
+/// 7.5 s at 10296. So the straight line stops where its gain stops being
+/// reliable.
 pub const STRAIGHT_GRADIENT_MAX_TERMS: usize = 2048;
 
 /// The generated items for an analysed system.
