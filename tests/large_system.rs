@@ -47,7 +47,7 @@ fn basis_sizes() {
     assert_eq!(Chain::METRIC_EXPONENTS.len(), 210);
     assert_eq!(Chain::metric_coefficient_count(), 21 * 210);
     assert_eq!(Chain::SOS_FULL.exponents.len(), 28);
-    assert_eq!(Chain::MONOMIAL_COUNT, 3003);
+    assert_eq!(Chain::monomial_count(), 3003);
 }
 
 #[test]
@@ -102,7 +102,7 @@ fn entropy_gradient_matches_finite_differences() {
 
 #[test]
 fn reference_model_and_blocks() {
-    let model = Chain::reference_model().unwrap();
+    let model = Model::<Chain>::reference().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(13);
     for _ in 0..10 {
         let x = random_state(&mut rng);

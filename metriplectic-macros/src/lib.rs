@@ -1,23 +1,12 @@
-//! The `metriplectic!` macro: DSL parser, exact polynomial engine and code
-//! generator.
+//! The `metriplectic!` macro.
 //!
 //! Use it through `metriplectic_runtime`, which re-exports it and provides the
-//! `MetriplecticSystem` trait the generated code implements. The pipeline is
-//! one module per stage: `parse` (tokens → syntax tree with
-//! spans), `analysis` (syntax tree → exact polynomials, every check),
-//! `monomials` (graded-lex bases and SOS tables), `emit` (readable Rust).
+//! `MetriplecticSystem` trait the generated code implements. This crate is a
+//! thin wrapper: the parser, the exact polynomial analysis and the code
+//! generator are the ordinary library `metriplectic-codegen`, where they can
+//! be tested, fuzzed and benchmarked like any other code.
 
-use pipeline::expand;
 use proc_macro::TokenStream;
-
-mod analysis;
-mod emit;
-mod monomials;
-mod parse;
-mod pipeline;
-mod polynomial;
-#[cfg(test)]
-mod robustness_tests;
 
 /// Declares a generalized metriplectic system
 /// ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)) with known Poisson tensor Π and
@@ -51,7 +40,8 @@ mod robustness_tests;
 ///   `metriplectic_runtime::MetriplecticSystem`.
 /// * `state (a, b, …);` the state variables, in state order.
 /// * `const NAME = expr;` a named constant: a constant expression that may use
-///   numbers and earlier constants.
+///   numbers and constants declared before it. Other sections may use every
+///   constant, wherever it is declared.
 /// * `poisson = [[…], …];` Π(x), an n×n matrix of polynomials. It must be
 ///   skew-symmetric and satisfy the Jacobi identity; both are checked exactly.
 /// * `hamiltonian = expr;` H(x).
@@ -61,7 +51,8 @@ mod robustness_tests;
 ///   0..=s.
 /// * `reference { entropy = expr; metric = [[…]]; }` optional: a known model
 ///   (for synthetic data and tests). It must fit the declared bases and the
-///   metric must be symmetric.
+///   metric must be symmetric; a constant metric must be positive
+///   semidefinite (checked exactly).
 ///
 /// # Expressions
 ///
@@ -75,129 +66,51 @@ mod robustness_tests;
 ///
 /// # What it generates
 ///
-/// The struct, inherent items (`MONOMIAL_COUNT`, `ENTROPY_JACOBIAN_TERMS`,
-/// `monomials(x)`, and `reference_model()` when a reference is declared) and
-/// the trait impl: exponent tables in graded lexicographic order (by degree,
-/// then larger exponents of earlier variables first), SOS matching tables (full
-/// and facially reduced), straight-line code for H, ∇H, Π and every monomial
-/// (each one multiplication from a lower one), and the per-sample assembly
-/// blocks of the entropy and metric searches. View it with `cargo expand`.
+/// View it with `cargo expand`; `metriplectic-macros/codegen/snapshots/`
+/// holds a reviewed expansion of the 2-D paper system.
+///
+/// * The unit struct, with your attributes and visibility, your doc comments
+///   followed by a generated summary (state, H, Π, bases, reference), and
+///   `#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]` (path
+///   qualified, `::core::fmt::Debug` and so on). A trait you derive yourself,
+///   e.g. `#[derive(Clone)]`, is left out of the generated derive rather than
+///   derived twice. The trait needs `Debug`, `Copy` and `Default`.
+/// * A hidden module `__metriplectic_<Name>` with straight-line code for H,
+///   ∇H, Π, the monomials (graded lexicographic, each one multiplication from
+///   a lower one, computing only as many degrees as the caller asks for) and
+///   the entropy gradient ∇S = J(x)ᵀψ as sums over named monomials.
+/// * `impl metriplectic_runtime::MetriplecticSystem`: the exponent tables (by
+///   degree, then larger exponents of earlier variables first), the entropy
+///   Jacobian as a table, the SOS matching tables (full and facially
+///   reduced), the reference coefficients, and methods forwarding to the
+///   module. Everything else (features, Jacobian, metric, the rows of the
+///   searches) is the trait's provided code, shared by all systems.
+///
+/// # Names and hygiene
+///
+/// The generated code means the same whatever your scope holds: state
+/// variables are bound inside the `#[no_implicit_prelude]` module, where no
+/// import, constant or prelude item is visible, so a state named `E` next to
+/// `use std::f64::consts::*;`, a state `q` next to a `const q`, or a state
+/// named `None` are all ordinary variables; the generated locals use
+/// `Span::mixed_site()` hygiene and cannot clash with state names. Raw
+/// identifiers work: `state (r#type, p);` and `r#type` (or `type`) in
+/// expressions. Reserved:
+///
+/// * the module name `__metriplectic_<Name>` in the scope of the invocation;
+/// * state variables named `t` or `trajectory`, and pairs like `q` and `dq`:
+///   trajectory CSV files use these columns for time, the trajectory
+///   identifier and the derivative of `q`.
+///
+/// # Errors
+///
+/// Every mistake of an invocation is reported in one compile, each at the
+/// tokens concerned (independent sections, constants and checks are checked
+/// independently; what depends on a broken part is skipped, not reported
+/// again). A constant reference metric is checked to be positive
+/// semidefinite, exactly. With errors, the struct and a stand-in trait impl
+/// are still emitted, so later uses of the type add no further errors.
 #[proc_macro]
 pub fn metriplectic(input: TokenStream) -> TokenStream {
-    match expand(input.into()) {
-        Ok(tokens) => tokens.into(),
-        Err(error) => error.to_compile_error().into(),
-    }
-}
-
-#[cfg(test)]
-mod snapshot_tests {
-    use std::path::PathBuf;
-
-    use quote::quote;
-
-    /// The 2-D paper system (DESIGN.md §3), as a user would write it.
-    fn linear_2d() -> proc_macro2::TokenStream {
-        quote! {
-            /// Canonical oscillator whose free energy has a figure-eight zero set.
-            pub struct Oscillator;
-            state (q, p);
-            poisson = [[0, 1], [-1, 0]];
-            hamiltonian = 0.5 * p^2 + 0.5 * q^2;
-            entropy degree 8;
-            metric degree 2;
-            reference {
-                entropy = -0.5 * (p^2 + 4*q^4 - 4*q^2)^2 - (0.5*p^2 + 0.5*q^2);
-                metric = [[1, 0], [0, 1]];
-            }
-        }
-    }
-
-    fn pretty(tokens: proc_macro2::TokenStream) -> String {
-        let file: syn::File = syn::parse2(tokens).expect("generated code parses as a file");
-        prettyplease::unparse(&file)
-    }
-
-    /// A state named like a readable monomial name (`x2` for x²) switches
-    /// every monomial binding to collision-free fallback names.
-    #[test]
-    fn colliding_monomial_names_fall_back() {
-        let tokens = quote! {
-            struct Awkward;
-            state (x, x2);
-            poisson = [[0, 1], [-1, 0]];
-            hamiltonian = x^2;
-            entropy degree 2;
-            metric degree 0;
-        };
-        let text = pretty(super::expand(tokens).expect("valid system"));
-        assert!(
-            text.contains("let (monomial_3, monomial_4, monomial_5) = (x * x, x2 * x, x2 * x2);"),
-            "{text}"
-        );
-        let plain = quote! {
-            struct Plain;
-            state (x, y);
-            poisson = [[0, 1], [-1, 0]];
-            hamiltonian = x^2;
-            entropy degree 2;
-            metric degree 0;
-        };
-        let text = pretty(super::expand(plain).expect("valid system"));
-        assert!(
-            text.contains("let (x2, x_y, y2) = (x * x, y * x, y * y);"),
-            "{text}"
-        );
-    }
-
-    /// What users see under `cargo expand`; `UPDATE_SNAPSHOTS=1` rewrites it.
-    #[test]
-    fn linear_2d_expansion_matches_snapshot() {
-        let expanded = pretty(super::expand(linear_2d()).expect("the paper system is valid"));
-        let path =
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("snapshots/linear_2d.expanded.rs");
-        if std::env::var_os("UPDATE_SNAPSHOTS").is_some() {
-            std::fs::create_dir_all(path.parent().expect("snapshot dir"))
-                .expect("create snapshots/");
-            std::fs::write(&path, &expanded).expect("write snapshot");
-        }
-        let stored = std::fs::read_to_string(&path)
-            .expect("snapshot missing: run with UPDATE_SNAPSHOTS=1 and review the file");
-        assert!(
-            stored == expanded,
-            "expansion changed; review and rerun with UPDATE_SNAPSHOTS=1\n{expanded}"
-        );
-    }
-}
-
-#[cfg(test)]
-mod size_tests {
-    use quote::quote;
-
-    /// The 6-state system of `tests/large_system.rs`: reports the size of the
-    /// generated code (run with `--nocapture` to see it).
-    #[test]
-    fn large_system_expansion_size() {
-        let tokens = quote! {
-            pub struct Chain;
-            state (q1, q2, q3, p1, p2, p3);
-            poisson = [
-                [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1],
-                [-1, 0, 0, 0, 0, 0], [0, -1, 0, 0, 0, 0], [0, 0, -1, 0, 0, 0],
-            ];
-            hamiltonian = 0.5 * (p1^2 + p2^2 + p3^2) + 0.5 * (q1^2 + q2^2 + q3^2);
-            entropy degree 8;
-            metric degree 4;
-        };
-        let expanded = super::expand(tokens).expect("valid system");
-        let text = expanded.to_string();
-        let file: syn::File = syn::parse2(expanded).expect("parses");
-        let pretty = prettyplease::unparse(&file);
-        println!(
-            "large system: {} bytes of tokens, {} lines / {} bytes after prettyplease",
-            text.len(),
-            pretty.lines().count(),
-            pretty.len()
-        );
-    }
+    metriplectic_codegen::expand(input.into()).into()
 }

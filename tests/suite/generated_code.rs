@@ -318,10 +318,6 @@ fn linear_2d_known_parts() {
 #[test]
 fn linear_2d_reference_model() {
     check_reference::<Linear2d>(&LINEAR_2D, 2);
-    assert_eq!(
-        Model::<Linear2d>::reference().unwrap(),
-        Model::<Linear2d>::reference().unwrap()
-    );
     // The reference entropy's true coefficients: −8 q⁸ is the largest in
     // magnitude besides 16 q⁶ (docs/method.md §5: η ≥ 16).
     let psi = Linear2d::REFERENCE_ENTROPY.unwrap();

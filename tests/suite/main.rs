@@ -3,6 +3,8 @@
 //!
 //! | module | capability |
 //! | --- | --- |
+//! | `macro_errors` | every invalid `metriplectic!` input is a spanned compile error (trybuild, `tests/ui/`) |
+//! | `hygiene` | generated code means the same whatever the caller's scope holds |
 //! | `generated_code` | the code `metriplectic!` generates, against hand-written formulas |
 //! | `data_io` | trajectory CSV, datasets, synthesis |
 //! | `derivatives` | derivative estimation from states |
@@ -28,7 +30,9 @@ mod determinism;
 mod entropy_search;
 mod generated_code;
 mod hostile_input;
+mod hygiene;
 mod identification;
+mod macro_errors;
 mod metric_positivity;
 mod metric_search;
 mod model_files;

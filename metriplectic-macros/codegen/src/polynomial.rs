@@ -447,7 +447,7 @@ impl fmt::Display for PolynomialDisplay<'_> {
             return f.write_str("0");
         }
         let mut terms: Vec<_> = self.poly.terms().collect();
-        terms.sort_by(|(a, _), (b, _)| crate::monomials::graded_lex_cmp(a, b));
+        terms.sort_by(|(a, _), (b, _)| crate::bases::graded_lex_cmp(a, b));
         for (i, (e, c)) in terms.iter().enumerate() {
             let negative = c.numerator() < 0;
             let magnitude = if negative {

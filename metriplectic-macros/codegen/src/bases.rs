@@ -9,6 +9,56 @@
 use std::cmp::Ordering;
 use std::collections::HashMap;
 
+/// The bases of a system with checked degrees.
+#[derive(Debug)]
+pub struct Bases {
+    /// Entropy degree r.
+    pub entropy_degree: u32,
+    /// Metric degree s (even).
+    pub metric_degree: u32,
+    /// All monomials of degree ≤ max(r, s), graded lexicographic; the entropy
+    /// basis is `[1..=entropy_len]`, the metric basis `[..metric_len]`.
+    pub monomials: Vec<Vec<u32>>,
+    /// Number of entropy monomials (degree 1..=r).
+    pub entropy_len: usize,
+    /// Number of metric monomials (degree 0..=s).
+    pub metric_len: usize,
+    /// The full SOS half-degree basis (degree ≤ s/2).
+    pub sos_full: Vec<Vec<u32>>,
+    /// Its matching table over the metric basis.
+    pub sos_full_matching: Vec<Vec<(usize, usize)>>,
+    /// The facially reduced matching table.
+    pub sos_reduced_matching: Vec<Vec<(usize, usize)>>,
+}
+
+impl Bases {
+    /// The bases of `nvars` variables with entropy degree `r` and metric
+    /// degree `s`, whose sizes the caller has bounded.
+    pub fn new(nvars: usize, r: u32, s: u32) -> Bases {
+        let monomials = up_to_degree(nvars, r.max(s));
+        let degree_at_most = |d: u32| {
+            monomials
+                .iter()
+                .take_while(|e| e.iter().sum::<u32>() <= d)
+                .count()
+        };
+        let entropy_len = degree_at_most(r).saturating_sub(1);
+        let metric_len = degree_at_most(s);
+        let sos_full = up_to_degree(nvars, s / 2);
+        let sos_full_matching = matching_table(&sos_full, &monomials[..metric_len]);
+        Bases {
+            entropy_degree: r,
+            metric_degree: s,
+            entropy_len,
+            metric_len,
+            sos_full,
+            sos_full_matching,
+            sos_reduced_matching: reduced_matching(metric_len),
+            monomials,
+        }
+    }
+}
+
 /// Compares two exponent vectors in graded lexicographic order.
 pub fn graded_lex_cmp(a: &[u32], b: &[u32]) -> Ordering {
     let (da, db): (u32, u32) = (a.iter().sum(), b.iter().sum());

@@ -1,0 +1,171 @@
+//! Π must be a Poisson tensor: skew-symmetric and satisfying the Jacobi
+//! identity, both decided exactly.
+
+use super::scope::exact;
+use crate::diagnostics::Diagnostics;
+use crate::parse::{Matrix, SpanRange};
+use crate::polynomial::{Overflow, Polynomial};
+
+/// Checks that Π is skew-symmetric, reporting every offending entry pair;
+/// whether it is.
+pub fn check_skew(
+    poisson: &[Polynomial],
+    matrix: &Matrix,
+    names: &[String],
+    diagnostics: &mut Diagnostics,
+) -> bool {
+    let n = names.len();
+    let mut skew = true;
+    for i in 0..n {
+        let diagonal = &poisson[i * n + i];
+        if !diagonal.is_zero() {
+            skew = false;
+            diagnostics.push(matrix.entry_span(i, i).error(format!(
+                "Π must be skew-symmetric, so its diagonal is zero: Π[{i}][{i}] (row and column \
+                 `{}`) is `{}`; write 0",
+                names[i],
+                diagonal.display(names)
+            )));
+        }
+        for j in i + 1..n {
+            let upper = &poisson[i * n + j];
+            let lower = &poisson[j * n + i];
+            let span = matrix.entry_span(i, j).to(matrix.entry_span(j, i));
+            let Some(sum) = exact(upper.add(lower), span, diagnostics) else {
+                skew = false;
+                continue;
+            };
+            if sum.is_zero() {
+                continue;
+            }
+            skew = false;
+            let Some(negated) = exact(upper.neg(), span, diagnostics) else {
+                continue;
+            };
+            diagnostics.push(span.error(format!(
+                "Π must be skew-symmetric, but Π[{i}][{j}] (row `{}`, column `{}`) is `{}` and \
+                 Π[{j}][{i}] is `{}`; write Π[{j}][{i}] = `{}`",
+                names[i],
+                names[j],
+                upper.display(names),
+                lower.display(names),
+                negated.display(names)
+            )));
+        }
+    }
+    skew
+}
+
+/// The Jacobiator Σ_l (Π_il ∂_l Π_jk + Π_jl ∂_l Π_ki + Π_kl ∂_l Π_ij).
+pub fn jacobiator(
+    poisson: &[Polynomial],
+    n: usize,
+    (i, j, k): (usize, usize, usize),
+    derivatives: &[Vec<Polynomial>],
+) -> Result<Polynomial, Overflow> {
+    // derivatives[l][a * n + b] = ∂_l Π_ab
+    let mut sum = Polynomial::zero(n);
+    for (l, d) in derivatives.iter().enumerate() {
+        for (a, b, c) in [(i, j, k), (j, k, i), (k, i, j)] {
+            let term = poisson[a * n + l].mul(&d[b * n + c])?;
+            sum = sum.add(&term)?;
+        }
+    }
+    Ok(sum)
+}
+
+/// Checks the Jacobi identity exactly for a skew Π, reporting the first
+/// violation (one is enough to show Π is not a Poisson tensor).
+pub fn check_jacobi(
+    poisson: &[Polynomial],
+    matrix: &Matrix,
+    names: &[String],
+    diagnostics: &mut Diagnostics,
+) {
+    let n = names.len();
+    let span = SpanRange::single(matrix.span);
+    let derivatives = (0..n)
+        .map(|l| {
+            poisson
+                .iter()
+                .map(|p| p.derivative(l))
+                .collect::<Result<Vec<_>, _>>()
+        })
+        .collect::<Result<Vec<_>, _>>();
+    let Some(derivatives) = exact(derivatives, span, diagnostics) else {
+        return;
+    };
+    // For skew Π the Jacobiator is totally antisymmetric: i < j < k suffices.
+    for i in 0..n {
+        for j in i + 1..n {
+            for k in j + 1..n {
+                let value = jacobiator(poisson, n, (i, j, k), &derivatives);
+                let Some(value) = exact(value, span, diagnostics) else {
+                    return;
+                };
+                if !value.is_zero() {
+                    diagnostics.push(span.error(format!(
+                        "Π is skew-symmetric but violates the Jacobi identity, so it is not a \
+                         Poisson tensor: for (i, j, k) = ({}, {}, {}) (indices {i}, {j}, {k}), \
+                         Σ_l (Π_il ∂_l Π_jk + Π_jl ∂_l Π_ki + Π_kl ∂_l Π_ij) = `{}`, not 0; \
+                         use a Poisson tensor such as a constant skew matrix or a Lie–Poisson \
+                         tensor (for so(3): [[0, -z, y], [z, 0, -x], [-y, x, 0]])",
+                        names[i],
+                        names[j],
+                        names[k],
+                        value.display(names)
+                    )));
+                    return;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::scope::tests::poly;
+
+    /// Π from text rows, then whether every Jacobiator vanishes.
+    fn is_poisson(rows: &[&str], names: &[&str]) -> bool {
+        let n = names.len();
+        let entries: Vec<Polynomial> = rows.iter().map(|t| poly(t, names).unwrap()).collect();
+        assert_eq!(entries.len(), n * n);
+        let derivatives: Vec<Vec<Polynomial>> = (0..n)
+            .map(|l| entries.iter().map(|p| p.derivative(l).unwrap()).collect())
+            .collect();
+        let mut ok = true;
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    ok &= jacobiator(&entries, n, (i, j, k), &derivatives)
+                        .unwrap()
+                        .is_zero();
+                }
+            }
+        }
+        ok
+    }
+
+    #[test]
+    fn jacobi_identity_on_known_tensors() {
+        assert!(is_poisson(&["0", "1", "-1", "0"], &["q", "p"]));
+        let canonical_4d = [
+            "0", "0", "1", "0", //
+            "0", "0", "0", "1", //
+            "-1", "0", "0", "0", //
+            "0", "-1", "0", "0",
+        ];
+        assert!(is_poisson(&canonical_4d, &["q1", "q2", "p1", "p2"]));
+        let so3 = ["0", "-z", "y", "z", "0", "-x", "-y", "x", "0"];
+        assert!(is_poisson(&so3, &["x", "y", "z"]));
+        // Skew but not Poisson: Π_ij = ε_ijk v_k with v = (0, x, 1), v·curl v = 1.
+        let not_poisson = ["0", "1", "-x", "-1", "0", "0", "x", "0", "0"];
+        assert!(!is_poisson(&not_poisson, &["x", "y", "z"]));
+        // [[0, z, 0], [-z, 0, x], [0, -x, 0]] looks suspicious but is Poisson:
+        // v = (x, 0, z) is a gradient, so v·curl v = 0.
+        let curl_free = ["0", "z", "0", "-z", "0", "x", "0", "-x", "0"];
+        assert!(is_poisson(&curl_free, &["x", "y", "z"]));
+    }
+}

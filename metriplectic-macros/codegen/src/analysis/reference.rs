@@ -1,0 +1,177 @@
+//! The reference model: it must fit the declared bases, and its metric must
+//! be symmetric and positive semidefinite (else the free energy it defines
+//! decreases somewhere: dE/dt = ∇Eᵀ K ∇E).
+
+use super::definiteness::{self, Definiteness};
+use super::scope::{Context, Scope};
+use crate::bases::Bases;
+use crate::diagnostics::Diagnostics;
+use crate::parse::{Matrix, Reference, SpanRange};
+use crate::polynomial::{Polynomial, Rational};
+
+/// The declared reference model in the system's bases.
+#[derive(Debug)]
+pub struct ReferenceModel {
+    /// The reference entropy as a polynomial (for the docs).
+    pub entropy: Polynomial,
+    /// Its constant term, dropped from ψ because it does not affect the dynamics.
+    pub dropped_constant: Rational,
+    /// ψ, one coefficient per entropy monomial.
+    pub psi: Vec<Rational>,
+    /// θ, laid out by `metric_pair_index`.
+    pub theta: Vec<Rational>,
+    /// The reference metric, row-major (for the docs).
+    pub metric: Vec<Polynomial>,
+}
+
+/// Checks the reference entropy and metric independently; the model when
+/// both are valid and the bases are known.
+pub fn check_reference(
+    scope: &Scope,
+    reference: &Reference,
+    entropy_degree: Option<u32>,
+    metric_degree: Option<u32>,
+    bases: Option<&Bases>,
+    diagnostics: &mut Diagnostics,
+) -> Option<ReferenceModel> {
+    let entropy = reference.entropy.as_ref().and_then(|expr| {
+        let entropy = scope.polynomial(expr, Context::State, diagnostics)?;
+        match entropy_degree {
+            Some(r) if entropy.degree() > r => {
+                diagnostics.push(expr.span().error(format!(
+                    "the reference entropy has degree {} but the entropy basis stops at \
+                         degree {r}; raise it with `entropy degree {};` or lower the reference",
+                    entropy.degree(),
+                    entropy.degree()
+                )));
+                None
+            }
+            _ => Some(entropy),
+        }
+    });
+    let metric = reference
+        .metric
+        .as_ref()
+        .and_then(|matrix| check_metric(scope, matrix, metric_degree, diagnostics));
+    let (entropy, metric, bases) = (entropy?, metric?, bases?);
+
+    let n = scope.nvars();
+    let dropped_constant = entropy.coefficient(&vec![0; n]);
+    let psi = bases.monomials[1..=bases.entropy_len]
+        .iter()
+        .map(|e| entropy.coefficient(e))
+        .collect();
+    let mut theta = Vec::with_capacity(n * (n + 1) / 2 * bases.metric_len);
+    for j in 0..n {
+        for k in j..n {
+            let entry = &metric[j * n + k];
+            theta.extend(
+                bases.monomials[..bases.metric_len]
+                    .iter()
+                    .map(|e| entry.coefficient(e)),
+            );
+        }
+    }
+    Some(ReferenceModel {
+        entropy,
+        dropped_constant,
+        psi,
+        theta,
+        metric,
+    })
+}
+
+/// The reference metric: n×n, entries within the metric degree, symmetric,
+/// and positive semidefinite where that can be decided at compile time.
+fn check_metric(
+    scope: &Scope,
+    matrix: &Matrix,
+    metric_degree: Option<u32>,
+    diagnostics: &mut Diagnostics,
+) -> Option<Vec<Polynomial>> {
+    let metric = scope.matrix(matrix, "the reference metric K", diagnostics)?;
+    let names = scope.state_names();
+    let n = scope.nvars();
+    let mut valid = true;
+    for i in 0..n {
+        for j in 0..n {
+            let entry = &metric[i * n + j];
+            if let Some(s) = metric_degree {
+                if entry.degree() > s {
+                    valid = false;
+                    diagnostics.push(matrix.entry_span(i, j).error(format!(
+                        "reference metric entry K[{i}][{j}] has degree {} but the metric basis \
+                         stops at degree {s}; raise it with `metric degree {};` or lower the entry",
+                        entry.degree(),
+                        entry.degree() + entry.degree() % 2
+                    )));
+                }
+            }
+            if j > i && *entry != metric[j * n + i] {
+                valid = false;
+                diagnostics.push(matrix.entry_span(i, j).to(matrix.entry_span(j, i)).error(
+                    format!(
+                        "the reference metric must be symmetric, but K[{i}][{j}] (row `{}`, \
+                         column `{}`) is `{}` and K[{j}][{i}] is `{}`; write the same polynomial \
+                         in both",
+                        names[i],
+                        names[j],
+                        entry.display(names),
+                        metric[j * n + i].display(names)
+                    ),
+                ));
+            }
+        }
+    }
+    if valid {
+        valid = check_definiteness(&metric, matrix, names, diagnostics);
+    }
+    valid.then_some(metric)
+}
+
+/// Whether the reference metric is positive semidefinite, as far as the
+/// compiler can decide it.
+///
+/// A constant metric is decided exactly here. A non-constant one must be
+/// positive semidefinite on the region where data live, which the DSL does
+/// not declare yet; it is accepted unchecked. A future `region` section
+/// plugs in here: it would certify K ⪰ 0 on the region with the SOS tables
+/// (`SOS_FULL`), a job for the runtime's solver rather than for exact
+/// elimination.
+fn check_definiteness(
+    metric: &[Polynomial],
+    matrix: &Matrix,
+    names: &[String],
+    diagnostics: &mut Diagnostics,
+) -> bool {
+    let Some(constant) = metric
+        .iter()
+        .map(Polynomial::as_constant)
+        .collect::<Option<Vec<Rational>>>()
+    else {
+        return true;
+    };
+    let span = SpanRange::single(matrix.span);
+    match definiteness::semidefinite(&constant, names.len()) {
+        Ok(Definiteness::Semidefinite) => true,
+        Ok(Definiteness::Indefinite { witness, value }) => {
+            let y: Vec<String> = witness.iter().map(Rational::to_string).collect();
+            diagnostics.push(span.error(format!(
+                "the reference metric is not positive semidefinite: yᵀKy = {value} < 0 for \
+                 y = ({}) (components along {}), so wherever ∇E points along y the free energy \
+                 would decrease (dE/dt = ∇Eᵀ K ∇E); use a positive semidefinite matrix, e.g. a \
+                 diagonal one with non-negative entries",
+                y.join(", "),
+                names.join(", ")
+            )));
+            false
+        }
+        Err(overflow) => {
+            diagnostics.push(span.error(format!(
+                "could not verify exactly that the reference metric is positive semidefinite: \
+                 {overflow}"
+            )));
+            false
+        }
+    }
+}

@@ -1,0 +1,359 @@
+//! Expressions: a precedence-climbing parser over `proc_macro2` token trees.
+//!
+//! Rust's `^` binds looser than `*`, and the DSL needs mathematical
+//! precedence: `^` binds tighter than unary minus and `*`, and is
+//! right-associative. So expressions are not parsed by `syn` but here.
+
+use proc_macro2::{Delimiter, Group, Span, TokenTree};
+
+use super::syntax::{BinaryOp, Expr, SpanRange};
+use crate::polynomial::Rational;
+
+/// One comma-separated piece of a delimited group.
+pub struct Piece {
+    /// Its tokens (empty between two commas).
+    pub tokens: Vec<TokenTree>,
+    /// The comma that ends it, or the group's closing delimiter: where an
+    /// empty piece is reported.
+    pub end: Span,
+}
+
+/// Splits a group's tokens at top-level commas; a trailing comma is allowed.
+/// Empty pieces between two commas are reported by the expression parser.
+pub fn split_commas(group: &Group) -> Vec<Piece> {
+    let mut pieces = Vec::new();
+    let mut current = Vec::new();
+    for token in group.stream() {
+        match &token {
+            TokenTree::Punct(p) if p.as_char() == ',' => pieces.push(Piece {
+                tokens: std::mem::take(&mut current),
+                end: p.span(),
+            }),
+            _ => current.push(token),
+        }
+    }
+    if !current.is_empty() {
+        pieces.push(Piece {
+            tokens: current,
+            end: group.span_close(),
+        });
+    }
+    pieces
+}
+
+/// Precedence-climbing parser over a flat list of token trees.
+///
+/// ```text
+/// sum      := product (('+' | '-') product)*
+/// product  := unary (('*' | '/') unary)*
+/// unary    := ('-' | '+') unary | power
+/// power    := atom ('^' exponent)?
+/// exponent := ('-' | '+') exponent | power        (right-associative)
+/// atom     := number | name | '(' sum ')'
+/// ```
+pub struct ExprParser {
+    tokens: Vec<TokenTree>,
+    position: usize,
+    /// Where the expression ends (the `;`, `,` or closing delimiter after
+    /// it): errors about a missing operand point here.
+    end: Span,
+}
+
+pub const OPERATORS_HINT: &str =
+    "expressions are polynomials built from numbers, state variables, \
+    constants, `+ - * /`, `^` with an integer exponent, and parentheses";
+
+impl ExprParser {
+    /// A parser over the tokens of one expression, followed by the token
+    /// spanned `end`.
+    pub fn new(tokens: Vec<TokenTree>, end: Span) -> Self {
+        Self {
+            tokens,
+            position: 0,
+            end,
+        }
+    }
+
+    /// Parses the whole token list as one expression.
+    pub fn parse_all(mut self) -> syn::Result<Expr> {
+        if self.tokens.is_empty() {
+            return Err(syn::Error::new(
+                self.end,
+                "expected an expression before this",
+            ));
+        }
+        check_complexity(&self.tokens)?;
+        let expr = self.sum()?;
+        if let Some(token) = self.peek() {
+            return Err(self.unexpected(&token.clone(), "expected an operator"));
+        }
+        Ok(expr)
+    }
+
+    fn peek(&self) -> Option<&TokenTree> {
+        self.tokens.get(self.position)
+    }
+
+    fn peek_punct(&self) -> Option<(char, Span)> {
+        match self.peek() {
+            Some(TokenTree::Punct(p)) => Some((p.as_char(), p.span())),
+            _ => None,
+        }
+    }
+
+    fn end_span(&self) -> Span {
+        self.tokens.last().map_or(self.end, TokenTree::span)
+    }
+
+    fn sum(&mut self) -> syn::Result<Expr> {
+        let mut left = self.product()?;
+        while let Some((c @ ('+' | '-'), _)) = self.peek_punct() {
+            self.position += 1;
+            let right = self.product()?;
+            let op = if c == '+' {
+                BinaryOp::Add
+            } else {
+                BinaryOp::Sub
+            };
+            left = Expr::Binary {
+                op,
+                left: Box::new(left),
+                right: Box::new(right),
+            };
+        }
+        Ok(left)
+    }
+
+    fn product(&mut self) -> syn::Result<Expr> {
+        let mut left = self.unary()?;
+        while let Some((c @ ('*' | '/'), op_span)) = self.peek_punct() {
+            self.position += 1;
+            if c == '*' {
+                if let Some(('*', second)) = self.peek_punct() {
+                    return Err(SpanRange::single(op_span)
+                        .to(SpanRange::single(second))
+                        .error("`**` is not an operator here; write powers with `^`, e.g. `q^2`"));
+                }
+            }
+            let right = self.unary()?;
+            let op = if c == '*' {
+                BinaryOp::Mul
+            } else {
+                BinaryOp::Div
+            };
+            left = Expr::Binary {
+                op,
+                left: Box::new(left),
+                right: Box::new(right),
+            };
+        }
+        Ok(left)
+    }
+
+    fn unary(&mut self) -> syn::Result<Expr> {
+        if let Some((c @ ('+' | '-'), sign)) = self.peek_punct() {
+            self.position += 1;
+            let operand = self.unary()?;
+            return Ok(Expr::Unary {
+                negate: c == '-',
+                sign,
+                operand: Box::new(operand),
+            });
+        }
+        self.power()
+    }
+
+    fn power(&mut self) -> syn::Result<Expr> {
+        let base = self.atom()?;
+        if let Some(('^', _)) = self.peek_punct() {
+            self.position += 1;
+            let exponent = self.exponent()?;
+            return Ok(Expr::Power {
+                base: Box::new(base),
+                exponent: Box::new(exponent),
+            });
+        }
+        Ok(base)
+    }
+
+    fn exponent(&mut self) -> syn::Result<Expr> {
+        if let Some((c @ ('+' | '-'), sign)) = self.peek_punct() {
+            self.position += 1;
+            let operand = self.exponent()?;
+            return Ok(Expr::Unary {
+                negate: c == '-',
+                sign,
+                operand: Box::new(operand),
+            });
+        }
+        self.power()
+    }
+
+    fn atom(&mut self) -> syn::Result<Expr> {
+        let Some(token) = self.peek().cloned() else {
+            return Err(syn::Error::new(
+                self.end_span(),
+                format!("expected an operand after this; {OPERATORS_HINT}"),
+            ));
+        };
+        self.position += 1;
+        match token {
+            TokenTree::Literal(literal) => number(literal),
+            TokenTree::Ident(ident) => {
+                match self.peek() {
+                    Some(TokenTree::Group(g)) if g.delimiter() == Delimiter::Parenthesis => {
+                        let range = SpanRange::single(ident.span()).to(SpanRange::single(g.span()));
+                        return Err(range.error(format!(
+                            "`{ident}(…)` is a function call, which is not a polynomial; \
+                             {OPERATORS_HINT} (expand it, e.g. as a truncated series, if you must)"
+                        )));
+                    }
+                    Some(TokenTree::Punct(p)) if p.as_char() == '.' => {
+                        let range = SpanRange::single(ident.span()).to(SpanRange::single(
+                            self.tokens
+                                .get(self.position + 1)
+                                .map_or(p.span(), TokenTree::span),
+                        ));
+                        return Err(range.error(format!(
+                            "method calls are not polynomial expressions; write powers as `{ident}^2`, \
+                             products with `*`"
+                        )));
+                    }
+                    Some(TokenTree::Punct(p)) if p.as_char() == '!' => {
+                        return Err(SpanRange::single(ident.span())
+                            .to(SpanRange::single(p.span()))
+                            .error(format!("macros are not allowed in expressions; {OPERATORS_HINT}")));
+                    }
+                    _ => {}
+                }
+                Ok(Expr::Name(ident))
+            }
+            TokenTree::Group(group) => match group.delimiter() {
+                Delimiter::Parenthesis => {
+                    let inner: Vec<TokenTree> = group.stream().into_iter().collect();
+                    if inner.is_empty() {
+                        return Err(syn::Error::new(group.span(), "empty parentheses: expected an expression inside"));
+                    }
+                    let mut parser = ExprParser::new(inner, group.span_close());
+                    let expr = parser.sum()?;
+                    if let Some(token) = parser.peek() {
+                        return Err(parser.unexpected(&token.clone(), "expected an operator or `)`"));
+                    }
+                    Ok(Expr::Paren {
+                        span: group.span(),
+                        inner: Box::new(expr),
+                    })
+                }
+                Delimiter::None => {
+                    // Invisible groups come from macro_rules! fragments: look through them.
+                    let parser = ExprParser::new(group.stream().into_iter().collect(), group.span());
+                    parser.parse_all()
+                }
+                Delimiter::Bracket => Err(syn::Error::new(
+                    group.span(),
+                    "a matrix is not allowed here; only `poisson` and a reference `metric` are matrices",
+                )),
+                Delimiter::Brace => Err(syn::Error::new(
+                    group.span(),
+                    format!("blocks are not allowed in expressions; {OPERATORS_HINT}"),
+                )),
+            },
+            TokenTree::Punct(p) => Err(self.unexpected(
+                &TokenTree::Punct(p),
+                "expected a number, a variable, a constant or `(`",
+            )),
+        }
+    }
+
+    fn unexpected(&self, token: &TokenTree, expected: &str) -> syn::Error {
+        let shown = match token {
+            TokenTree::Group(g) => match g.delimiter() {
+                Delimiter::Parenthesis => "(…)".to_string(),
+                Delimiter::Bracket => "[…]".to_string(),
+                Delimiter::Brace => "{…}".to_string(),
+                Delimiter::None => token.to_string(),
+            },
+            _ => token.to_string(),
+        };
+        let hint = match token {
+            TokenTree::Punct(p) if p.as_char() == '.' => {
+                " (method calls are not allowed; write powers with `^`)".to_string()
+            }
+            _ => format!("; {OPERATORS_HINT}"),
+        };
+        syn::Error::new(
+            token.span(),
+            format!("unexpected `{shown}`: {expected}{hint}"),
+        )
+    }
+}
+
+/// Largest number of tokens in one expression.
+const MAX_TOKENS: usize = 2_000;
+/// Deepest nesting of parentheses in one expression.
+pub const MAX_NESTING: usize = 64;
+
+/// Bounds the size and nesting of an expression so that the recursive parser
+/// and the analysis stay far from the compiler's stack limit.
+fn check_complexity(tokens: &[TokenTree]) -> syn::Result<()> {
+    fn walk(
+        tokens: &mut dyn Iterator<Item = TokenTree>,
+        depth: usize,
+        count: &mut usize,
+    ) -> syn::Result<()> {
+        for token in tokens {
+            *count += 1;
+            if *count > MAX_TOKENS {
+                return Err(syn::Error::new(
+                    token.span(),
+                    format!("expression too long (more than {MAX_TOKENS} tokens); simplify it"),
+                ));
+            }
+            if let TokenTree::Group(group) = &token {
+                if depth >= MAX_NESTING {
+                    return Err(syn::Error::new(
+                        group.span(),
+                        format!("parentheses nested more than {MAX_NESTING} deep; simplify the expression"),
+                    ));
+                }
+                walk(&mut group.stream().into_iter(), depth + 1, count)?;
+            }
+        }
+        Ok(())
+    }
+    let mut count = 0;
+    walk(&mut tokens.iter().cloned(), 0, &mut count)
+}
+
+/// A numeric literal as an exact rational.
+fn number(literal: proc_macro2::Literal) -> syn::Result<Expr> {
+    let span = literal.span();
+    let parsed = syn::Lit::new(literal);
+    let (digits, suffix) = match &parsed {
+        syn::Lit::Int(i) => (i.base10_digits().to_string(), i.suffix().to_string()),
+        syn::Lit::Float(f) => (f.base10_digits().to_string(), f.suffix().to_string()),
+        _ => {
+            return Err(syn::Error::new(
+                span,
+                format!("expected a number, a variable or a constant; {OPERATORS_HINT}"),
+            ))
+        }
+    };
+    if !suffix.is_empty() {
+        return Err(syn::Error::new(
+            span,
+            format!("numbers are exact and untyped: remove the `{suffix}` suffix"),
+        ));
+    }
+    match Rational::parse_decimal(&digits) {
+        Ok(Some(value)) => Ok(Expr::Number { value, span }),
+        Ok(None) => Err(syn::Error::new(span, "malformed number")),
+        Err(overflow) => Err(syn::Error::new(span, overflow)),
+    }
+}
+
+/// Parses a lone expression (for the engine's tests).
+#[cfg(test)]
+pub fn parse_expression(tokens: proc_macro2::TokenStream) -> syn::Result<Expr> {
+    ExprParser::new(tokens.into_iter().collect(), Span::call_site()).parse_all()
+}
