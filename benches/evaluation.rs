@@ -153,10 +153,37 @@ fn inputs<S: MetriplecticSystem>(seed: u64) -> Inputs {
     let psi = (0..S::entropy_coefficient_count())
         .map(|_| rng.random_range(-1.0..1.0))
         .collect();
-    let theta = (0..S::metric_coefficient_count())
+    let theta = random_sos_metric::<S>(&mut rng);
+    Inputs { states, psi, theta }
+}
+
+/// θ of a random state-dependent metric K(x) = Z(x)ᵀ A Aᵀ Z(x) over the
+/// full SOS basis: positive semidefinite, so a valid model's, and with
+/// every metric coefficient in use.
+fn random_sos_metric<S: MetriplecticSystem>(rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let n = S::DIM;
+    let tables = S::SOS_FULL;
+    let half = tables.exponents.len();
+    let size = n * half;
+    let a: Vec<f64> = (0..size * size)
         .map(|_| rng.random_range(-1.0..1.0))
         .collect();
-    Inputs { states, psi, theta }
+    let gram =
+        |r: usize, c: usize| -> f64 { (0..size).map(|k| a[r * size + k] * a[c * size + k]).sum() };
+    let basis = S::METRIC_EXPONENTS.len();
+    let mut theta = vec![0.0; S::metric_coefficient_count()];
+    for j in 0..n {
+        for k in j..n {
+            let pair = metric_pair_index(n, j, k);
+            for (alpha, pairs) in tables.matching.iter().enumerate() {
+                theta[pair * basis + alpha] = pairs
+                    .iter()
+                    .map(|&(b, g)| gram(j * half + b as usize, k * half + g as usize))
+                    .sum();
+            }
+        }
+    }
+    theta
 }
 
 fn assert_close(what: &str, generated: &[f64], interpreted: &[f64]) {

@@ -130,12 +130,10 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     /// Number of monomials of degree below r: all that the entropy's
     /// derivatives read (the monomials [`ENTROPY_JACOBIAN`](Self::ENTROPY_JACOBIAN) indexes).
     fn derivative_monomial_count() -> usize {
-        let r = Self::ENTROPY_DEGREE;
-        // The entropy basis lists degrees 1..=r in order; drop the degree-r ones.
-        1 + Self::ENTROPY_EXPONENTS
-            .iter()
-            .take_while(|e| e.iter().sum::<u32>() < r)
-            .count()
+        // All monomials of degree ≤ r − 1 in n variables: C(n + r − 1, n),
+        // computed in closed form so that it folds to a constant.
+        let (n, r) = (Self::DIM, Self::ENTROPY_DEGREE as usize);
+        (1..=n).fold(1, |count, i| count * (r - 1 + i) / i)
     }
 
     /// Entropy features φ_r(x) into `features` (`ENTROPY_EXPONENTS.len()`).
@@ -326,21 +324,34 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Runs `f` on `len` zeroed scratch entries without allocating for the
-/// sizes paper-sized systems need, and on the heap beyond. Tiers keep the
-/// zeroing close to `len`: `len` is usually a constant of the system, so
-/// after inlining only one branch remains.
+/// Runs `f` on `len` zeroed scratch entries: on the stack up to 256 (the
+/// sizes paper-sized systems need), on the heap beyond.
+///
+/// Tiers keep the zeroing close to `len`. `f` is called from one place, so
+/// that it inlines and `len` (a constant of the system) folds: called from
+/// one branch per tier, the closure was outlined and the system's monomials
+/// were written with a `memcpy` per degree (measured 35 ns against 6 ns for
+/// a 2-D metric). The frame stays below one page, so no stack probe.
 #[inline(always)]
 pub(crate) fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
-    if len <= 64 {
-        f(&mut [0.0; 64][..len])
-    } else if len <= 512 {
-        f(&mut [0.0; 512][..len])
-    } else if len <= 8256 {
-        f(&mut [0.0; 8256][..len])
+    let mut small: [f64; 16];
+    let mut medium: [f64; 64];
+    let mut large: [f64; 256];
+    let mut heap: Vec<f64>;
+    let scratch: &mut [f64] = if len <= 16 {
+        small = [0.0; 16];
+        &mut small[..len]
+    } else if len <= 64 {
+        medium = [0.0; 64];
+        &mut medium[..len]
+    } else if len <= 256 {
+        large = [0.0; 256];
+        &mut large[..len]
     } else {
-        f(&mut vec![0.0; len])
-    }
+        heap = vec![0.0; len];
+        &mut heap
+    };
+    f(scratch)
 }
 
 #[cfg(test)]
