@@ -126,7 +126,10 @@ pub use solve::{
     solve_l1, Cone, ConstraintId, L1Problem, L1Solution, Regression, SolveStatus, SolverBackend,
     SolverSettings,
 };
-pub use system::{JacobianTerm, MetriplecticSystem, SosTables};
+pub use system::{
+    CertificateMode, Classical, GramBlock, JacobianTerm, LinearForm, MetriplecticSystem,
+    PolynomialTerms, Region, RegionCertificate, SosTables,
+};
 
 /// The names most programs need: `use metriplectic_runtime::prelude::*;`.
 pub mod prelude {

@@ -27,6 +27,100 @@ pub struct SosTables {
 /// monomial x^(α_k − e_j), of degree below the entropy degree).
 pub type JacobianTerm = (u32, u32, u32, u32);
 
+/// A polynomial as (coefficient, exponent vector) terms.
+pub type PolynomialTerms = &'static [(f64, &'static [u32])];
+
+/// A sparse linear form Σ c·vᵢ over a coefficient vector, as (index i, c).
+pub type LinearForm = &'static [(u32, f64)];
+
+/// A region R = {x : gₖ(x) ≥ 0} of the state space on which a metric
+/// certificate holds (`region` in `metriplectic!`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Region {
+    /// ‖x − center‖ ≤ radius: the one constraint g = radius² − ‖x − center‖².
+    Ball {
+        /// Centre.
+        center: &'static [f64],
+        /// Radius (> 0).
+        radius: f64,
+    },
+    /// lowerⱼ ≤ xⱼ ≤ upperⱼ: the constraints gⱼ = (upperⱼ − xⱼ)(xⱼ − lowerⱼ).
+    Box {
+        /// Lower bounds, one per state variable.
+        lower: &'static [f64],
+        /// Upper bounds (each above its lower bound).
+        upper: &'static [f64],
+    },
+}
+
+/// Which bounds of 0 ⪯ K(x) ⪯ ηI a region certificate proves where.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum CertificateMode {
+    /// K(x) ⪰ 0 for every x (so the free energy never decreases anywhere)
+    /// and K(x) ⪯ ηI on the region (the default).
+    GlobalLowerBound,
+    /// Both bounds only on the region: dE/dt ≥ 0 is certified only there.
+    OnRegion,
+}
+
+/// One sum-of-squares block of a certificate: g(x)·Z(x)ᵀ Q Z(x) with
+/// Z(x) = I_n ⊗ m(x), Q ⪰ 0, and g a region constraint (or 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GramBlock {
+    /// The multiplier g(x); empty for the plain block (g = 1).
+    pub multiplier: PolynomialTerms,
+    /// The block's basis monomials m(x).
+    pub exponents: &'static [&'static [u32]],
+    /// For each target monomial α (indexing
+    /// [`RegionCertificate::targets`]), the triples (β, γ, c): the
+    /// coefficient of x^α in g(x)·x^β·x^γ is c, so that
+    /// [g Zᵀ Q Z]ⱼₖ,α = Σ c·Q[(j, β), (k, γ)]. Pairs are ordered.
+    pub matching: &'static [&'static [(u16, u16, f64)]],
+}
+
+/// The sum-of-squares certificate of a metric on a region (`region` in
+/// `metriplectic!`), following the matrix S-procedure:
+///
+/// ```text
+/// K(x)       = Σ_lower  gᵦ(x) Z(x)ᵀ Qᵦ Z(x),   Qᵦ ⪰ 0,
+/// ηI − K(x)  = Σ_upper  gᵦ(x) Z(x)ᵀ Qᵦ Z(x),   Qᵦ ⪰ 0,
+/// ```
+///
+/// matched coefficient by coefficient on [`targets`](Self::targets): θ on
+/// the metric monomials (a prefix of the targets), zero above them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RegionCertificate {
+    /// Where the certificate holds.
+    pub region: Region,
+    /// Which bounds hold where.
+    pub mode: CertificateMode,
+    /// How far the multiplier degrees are raised (`relaxation order`, 0 by default).
+    pub relaxation_order: u32,
+    /// All monomials the blocks can produce, graded lexicographic; the
+    /// metric basis is their prefix.
+    pub targets: &'static [&'static [u32]],
+    /// Blocks whose sum is K(x).
+    pub lower: &'static [GramBlock],
+    /// Blocks whose sum is ηI − K(x).
+    pub upper: &'static [GramBlock],
+}
+
+/// The classical (GENERIC) form of a system (`classical;` in
+/// `metriplectic!`): the entropy is a Casimir of Π (Π∇S ≡ 0) and the metric
+/// is degenerate along ∇H (K∇H ≡ 0), so H is conserved and S produced.
+/// Both conditions are polynomial identities, linear in the coefficients;
+/// the macro derives them exactly over the rationals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Classical {
+    /// The rows of C_S ψ = 0 (each a linear form in ψ) that make S a Casimir.
+    pub entropy_constraints: &'static [LinearForm],
+    /// A basis of the polynomial Casimirs in the entropy basis: every
+    /// admissible ψ is a combination of these vectors.
+    pub casimir_basis: &'static [LinearForm],
+    /// The rows of C_K θ = 0 (each a linear form in θ) that make K∇H ≡ 0.
+    pub metric_constraints: &'static [LinearForm],
+}
+
 /// A generalized metriplectic system ẋ = (Π(x) + K(x)) (∇H(x) + ∇S(x)) with
 /// known Π and H and polynomial bases for the unknown S and K.
 ///
@@ -99,6 +193,13 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     const REFERENCE_ENTROPY: Option<&'static [f64]>;
     /// Metric coefficients θ of the declared reference model, if any.
     const REFERENCE_METRIC: Option<&'static [f64]>;
+    /// The metric certificate on a declared region; `None` (the default)
+    /// for the global certificate with the facially reduced tables
+    /// ([`SOS_REDUCED`](Self::SOS_REDUCED)), which force K constant.
+    const REGION_CERTIFICATE: Option<RegionCertificate> = None;
+    /// The classical (GENERIC) constraints, if the system is declared
+    /// classical; `None` (the default) for the generalized form.
+    const CLASSICAL: Option<Classical> = None;
 
     /// H(x). `x.len() == DIM`.
     fn hamiltonian(x: &[f64]) -> f64;
