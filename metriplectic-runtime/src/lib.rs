@@ -51,7 +51,7 @@
 //! | --- | --- |
 //! | system | [`metriplectic!`], [`MetriplecticSystem`], [`SosTables`], [`JacobianTerm`] |
 //! | model | [`Model`] (evaluation, JSON files), [`WriteMode`] |
-//! | data | [`Dataset`], [`Trajectory`], [`read_trajectories`], [`write_trajectories`] (CSV), [`DerivativeMethod`], [`estimate_derivatives`] |
+//! | data | [`Dataset`], [`WeakDataset`] (the weak form: states only), [`IdentificationData`], [`Trajectory`], [`read_trajectories`], [`write_trajectories`] (CSV), [`DerivativeMethod`], [`estimate_derivatives`] |
 //! | identify | [`identify`] and its variants, [`IdentifyConfig`], [`IterationScheme`], [`TrustRegion`], [`CheckpointConfig`], [`Identification`], [`History`], [`StopReason`], [`Cost`], [`model_cost`] |
 //! | searches | [`entropy_search`], [`metric_search`], [`joint_step`] with [`SearchOptions`] and [`SearchReport`] |
 //! | solve | [`L1Problem`], [`Regression`], [`Cone`], [`solve_l1`], [`L1Solution`], [`SolverSettings`], [`SolverBackend`], [`SolveStatus`] |
@@ -93,10 +93,11 @@ mod system;
 #[cfg(test)]
 mod test_system;
 
+pub use data::split_by_trajectory;
 pub use data::{
     dataset_from_trajectories, differentiate, estimate_all, estimate_derivatives,
     read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to, Dataset,
-    DerivativeMethod, Trajectory,
+    DerivativeMethod, IdentificationData, Trajectory, WeakDataset, WeakForm,
 };
 #[cfg(feature = "plot")]
 pub use error::PlotError;
@@ -111,14 +112,15 @@ pub use identify::{
 };
 pub use io::WriteMode;
 pub use metriplectic_macros::metriplectic;
-pub use model::Model;
+pub use model::{Model, Score};
 #[cfg(feature = "plot")]
 #[cfg_attr(docsrs, doc(cfg(feature = "plot")))]
 pub use plot::{free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels};
 pub use simulate::{
-    free_energy_diagnostics, integrate, simulate, synthesize, EnergyCheck, FreeEnergyReport,
-    InitialStates, Integration, IntegrationStats, IntegratorOptions, Noise, Outliers, OutputTimes,
-    SampleTimes, Simulation, SimulationOptions, SynthesisOptions, SyntheticData,
+    free_energy_diagnostics, integrate, simulate, simulate_many, synthesize, EnergyCheck,
+    FreeEnergyReport, InitialStates, Integration, IntegrationStats, IntegratorOptions, Noise,
+    Outliers, OutputTimes, SampleTimes, Simulation, SimulationOptions, SynthesisOptions,
+    SyntheticData,
 };
 #[cfg(feature = "clarabel")]
 pub use solve::L1Formulation;
@@ -132,10 +134,16 @@ pub use system::{
 };
 
 /// The names most programs need: `use metriplectic_runtime::prelude::*;`.
+///
+/// It covers the workflow from measured trajectories to a trusted model:
+/// declare the system, read trajectories, split them, build identification
+/// data (with derivatives or in the weak form), identify, score, print and
+/// simulate.
 pub mod prelude {
     pub use crate::{
-        identify, metriplectic, Dataset, Error, IdentifyConfig, MetriplecticSystem, Model, Result,
-        Trajectory,
+        identify, metriplectic, read_trajectories, simulate, simulate_many, split_by_trajectory,
+        Dataset, DerivativeMethod, Error, IdentificationData, IdentifyConfig, MetriplecticSystem,
+        Model, Result, Score, SimulationOptions, Trajectory, WeakDataset, WeakForm, WriteMode,
     };
 }
 

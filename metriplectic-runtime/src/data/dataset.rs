@@ -1,6 +1,7 @@
 //! Identification data: samples (xᵢ, ẋᵢ) of a system's state and its time
 //! derivative.
 
+use super::equations::{sealed, Equations, IdentificationData};
 use crate::error::{DatasetError, Error, Result};
 
 /// Validated samples (xᵢ, ẋᵢ), i = 0..m, of an n-dimensional state.
@@ -176,6 +177,23 @@ impl Dataset {
         Ok(())
     }
 }
+
+impl sealed::Sealed for Dataset {
+    fn equations(&self) -> Equations<'_> {
+        Equations {
+            dim: self.dim,
+            states: &self.states,
+            targets: &self.derivatives,
+            terms: None,
+        }
+    }
+
+    fn select(&self, indices: &[usize]) -> Result<Self> {
+        Dataset::select(self, indices)
+    }
+}
+
+impl IdentificationData for Dataset {}
 
 #[cfg(test)]
 mod tests {

@@ -5,11 +5,15 @@
 mod csv;
 mod dataset;
 mod derivative;
+pub(crate) mod equations;
 mod trajectory;
+mod weak;
 
 pub use csv::{
     read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
 };
 pub use dataset::Dataset;
 pub use derivative::{differentiate, estimate_all, estimate_derivatives, DerivativeMethod};
-pub use trajectory::{dataset_from_trajectories, Trajectory};
+pub use equations::IdentificationData;
+pub use trajectory::{dataset_from_trajectories, split_by_trajectory, Trajectory};
+pub use weak::{WeakDataset, WeakForm};

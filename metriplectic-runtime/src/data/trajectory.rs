@@ -250,6 +250,87 @@ pub fn dataset_from_trajectories(trajectories: &[Trajectory]) -> Result<Dataset>
     Ok(data)
 }
 
+impl Dataset {
+    /// The samples (x(tₖ), ẋ(tₖ)) of `trajectories` (same dimension): with
+    /// `derivatives = None` their own (measured or simulated) derivatives,
+    /// which every trajectory must carry; otherwise derivatives estimated
+    /// from the states with that method (any present are ignored).
+    ///
+    /// For noisy states without derivatives, the weak form
+    /// ([`WeakDataset::from_trajectories`](crate::WeakDataset::from_trajectories))
+    /// needs no derivative estimate at all.
+    ///
+    /// ```
+    /// use metriplectic_runtime::{Dataset, DerivativeMethod, Trajectory};
+    ///
+    /// let t: Vec<f64> = (0..30).map(|k| 0.1 * k as f64).collect();
+    /// let x: Vec<f64> = t.iter().map(|t| (-t).exp()).collect();
+    /// let traj = Trajectory::new(vec!["x".into()], t, x, None).unwrap();
+    /// let method = DerivativeMethod::FiniteDifference { order: 4 };
+    /// let data = Dataset::from_trajectories(&[traj], Some(&method)).unwrap();
+    /// assert_eq!(data.len(), 30);
+    /// assert!((data.derivative(10)[0] + (-1.0f64).exp()).abs() < 1e-4);
+    /// ```
+    pub fn from_trajectories(
+        trajectories: &[Trajectory],
+        derivatives: Option<&crate::DerivativeMethod>,
+    ) -> Result<Dataset> {
+        match derivatives {
+            None => dataset_from_trajectories(trajectories),
+            Some(method) => {
+                let estimated = crate::estimate_all(trajectories, method)?;
+                dataset_from_trajectories(&estimated)
+            }
+        }
+    }
+}
+
+/// Splits trajectories at random into (training, validation) by whole
+/// trajectories, `fraction` of them (rounded, at least one, and leaving at
+/// least one) for validation, reproducibly for a `seed`.
+///
+/// Holding out whole trajectories keeps validation states from being time
+/// neighbours of training states, so the validation error measures how the
+/// model generalises to new initial conditions.
+///
+/// ```
+/// use metriplectic_runtime::{split_by_trajectory, Trajectory};
+///
+/// let trajs: Vec<Trajectory> = (0..10)
+///     .map(|k| Trajectory::new(vec!["x".into()], vec![0.0], vec![k as f64], None).unwrap())
+///     .collect();
+/// let (train, validation) = split_by_trajectory(&trajs, 0.2, 7).unwrap();
+/// assert_eq!((train.len(), validation.len()), (8, 2));
+/// ```
+pub fn split_by_trajectory(
+    trajectories: &[Trajectory],
+    fraction: f64,
+    seed: u64,
+) -> Result<(Vec<Trajectory>, Vec<Trajectory>)> {
+    use rand::SeedableRng;
+    let count = trajectories.len();
+    if count < 2 {
+        return Err(invalid(
+            "trajectories",
+            format!("{count} trajectories cannot be split: at least two are needed"),
+        ));
+    }
+    if !(fraction > 0.0 && fraction < 1.0) {
+        return Err(invalid(
+            "validation fraction",
+            format!("{fraction} is not in (0, 1)"),
+        ));
+    }
+    let held = ((fraction * count as f64).round() as usize).clamp(1, count - 1);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut order = rand::seq::index::sample(&mut rng, count, count).into_vec();
+    let mut validation_indices = order.split_off(count - held);
+    order.sort_unstable();
+    validation_indices.sort_unstable();
+    let pick = |indices: &[usize]| indices.iter().map(|&i| trajectories[i].clone()).collect();
+    Ok((pick(&order), pick(&validation_indices)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -24,7 +24,7 @@ use super::config::IdentifyConfig;
 use super::cost::Cost;
 use super::history::{History, StopReason};
 use super::state::RunState;
-use crate::data::Dataset;
+use crate::data::IdentificationData;
 use crate::error::{Error, Result};
 use crate::io::{read_capped, write_file, WriteMode};
 use crate::model::Model;
@@ -90,13 +90,13 @@ struct Fingerprint {
 }
 
 impl Fingerprint {
-    fn of<S: MetriplecticSystem>(data: &Dataset) -> Self {
+    fn of<S: MetriplecticSystem>(data: &impl IdentificationData) -> Self {
         Self {
             system: S::NAME.to_owned(),
             dim: S::DIM,
             entropy_coefficients: S::entropy_coefficient_count(),
             metric_coefficients: S::metric_coefficient_count(),
-            samples: data.len(),
+            samples: data.equation_count(),
             data_hash: format!("{:016x}", data_hash(data)),
         }
     }
@@ -104,13 +104,10 @@ impl Fingerprint {
 
 /// FNV-1a (64 bit) over the dimension and the bit patterns of the data: any
 /// change of any value (even one ulp) changes it with high probability.
-fn data_hash(data: &Dataset) -> u64 {
+fn data_hash(data: &impl IdentificationData) -> u64 {
     const PRIME: u64 = 0x0000_0100_0000_01b3;
     let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
-    let words = std::iter::once(data.dim() as u64)
-        .chain(data.states().iter().map(|v| v.to_bits()))
-        .chain(data.derivatives().iter().map(|v| v.to_bits()));
-    for word in words {
+    for word in data.equations().words() {
         for byte in word.to_le_bytes() {
             hash ^= u64::from(byte);
             hash = hash.wrapping_mul(PRIME);
@@ -161,7 +158,7 @@ fn size_limit(max_iterations: usize) -> u64 {
 /// Saves `state` of a run of system `S` on `data` with `config` to `path`.
 pub(crate) fn save<S: MetriplecticSystem>(
     path: &Path,
-    data: &Dataset,
+    data: &impl IdentificationData,
     config: &IdentifyConfig,
     state: &RunState<S>,
 ) -> Result<()> {
@@ -198,7 +195,7 @@ pub(crate) fn save<S: MetriplecticSystem>(
 /// system `S` on `data` with `config`.
 pub(crate) fn load<S: MetriplecticSystem>(
     path: &Path,
-    data: &Dataset,
+    data: &impl IdentificationData,
     config: &IdentifyConfig,
 ) -> Result<RunState<S>> {
     let mismatch = |reason: String| Error::CheckpointMismatch {

@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::data::Dataset;
+use crate::data::IdentificationData;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
@@ -38,23 +38,46 @@ impl Cost {
 
 /// The cost of `model` on `data`. Errors if the data's dimension differs
 /// from the system's.
-pub fn model_cost<S: MetriplecticSystem>(model: &Model<S>, data: &Dataset) -> Result<Cost> {
+pub fn model_cost<S: MetriplecticSystem>(
+    model: &Model<S>,
+    data: &impl IdentificationData,
+) -> Result<Cost> {
     check_dataset::<S>(data)?;
-    let mut xdot = vec![0.0; S::DIM];
+    let equations = data.equations();
+    let n = S::DIM;
     let mut sum = 0.0;
-    for (x, measured) in data.iter() {
-        model.vector_field_unchecked(x, &mut xdot);
-        sum += measured
-            .iter()
-            .zip(&xdot)
-            .map(|(m, f)| (m - f).abs())
-            .sum::<f64>();
+    let mut field = vec![0.0; n];
+    if equations.terms.is_none() {
+        for e in 0..equations.len() {
+            model.vector_field_unchecked(equations.state(e), &mut field);
+            sum += l1_distance(equations.target(e), &field);
+        }
+    } else {
+        // Each sample's field once, then every equation's weighted sum.
+        let mut fields = vec![0.0; equations.sample_count() * n];
+        for (j, out) in fields.chunks_exact_mut(n).enumerate() {
+            model.vector_field_unchecked(equations.state(j), out);
+        }
+        for e in 0..equations.len() {
+            field.fill(0.0);
+            for (j, w) in equations.terms_of(e) {
+                field
+                    .iter_mut()
+                    .zip(&fields[j * n..(j + 1) * n])
+                    .for_each(|(f, v)| *f += w * v);
+            }
+            sum += l1_distance(equations.target(e), &field);
+        }
     }
-    Ok(Cost::from_sum(sum, data.len() * S::DIM))
+    Ok(Cost::from_sum(sum, equations.len() * n))
+}
+
+fn l1_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum()
 }
 
 /// Errors unless `data` has the system's state dimension.
-pub(crate) fn check_dataset<S: MetriplecticSystem>(data: &Dataset) -> Result<()> {
+pub(crate) fn check_dataset<S: MetriplecticSystem>(data: &impl IdentificationData) -> Result<()> {
     if data.dim() == S::DIM {
         Ok(())
     } else {

@@ -16,7 +16,7 @@ use super::history::{
 use super::search::{entropy_search, joint_step, metric_search, SearchReport};
 use super::state::RunState;
 use super::warnings::{data_warnings, IdentifyWarning};
-use crate::data::Dataset;
+use crate::data::IdentificationData;
 use crate::error::{Error, Result};
 use crate::model::{identity_metric, Model};
 
@@ -74,8 +74,55 @@ pub struct Identification<S: MetriplecticSystem> {
 /// With [`IdentifyConfig::checkpoint`] set, the run's full state is saved
 /// atomically every few iterations and when it stops; [`identify_resume`]
 /// continues it, with the same history an uninterrupted run would have had.
+///
+/// # Example: measured states to a validated model
+///
+/// Noisy states without derivatives (here synthesised and written as the
+/// CSV an instrument would give): hold whole trajectories out, identify on
+/// the weak form of the rest, score on the held-out ones.
+///
+/// ```
+/// use metriplectic_runtime::prelude::*;
+/// use metriplectic_runtime::{
+///     read_trajectories_from, synthesize, write_trajectories_to, InitialStates, Noise,
+///     SampleTimes, SynthesisOptions,
+/// };
+///
+/// metriplectic! {
+///     pub struct Decay;
+///     state (x, y);
+///     poisson = [[0, 1], [-1, 0]];
+///     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
+///     entropy degree 2;
+///     metric degree 0;
+///     reference { entropy = -(x^2 + y^2); metric = [[1, 0], [0, 1]]; }
+/// }
+///
+/// // Stand-in for measurements: 1e-3 state noise, states only.
+/// let truth = Model::<Decay>::reference()?;
+/// let synthetic = synthesize(&truth, &SynthesisOptions {
+///     trajectories: 12,
+///     duration: 3.0,
+///     noise: Noise { state_std: 1e-3, derivative_std: 0.0 },
+///     ..SynthesisOptions::new(InitialStates::cube(2, 1.0), SampleTimes::Uniform { interval: 0.02 })
+/// })?;
+/// let mut csv = Vec::new();
+/// write_trajectories_to(&mut csv, &synthetic.measured)?;
+///
+/// // The workflow.
+/// let trajectories = read_trajectories_from(csv.as_slice(), &["x", "y"])?;
+/// let (train, validation) = split_by_trajectory(&trajectories, 0.25, 1)?;
+/// let form = WeakForm::default();
+/// let fit = identify::<Decay>(&WeakDataset::from_trajectories(&train, &form)?, &IdentifyConfig::default())?;
+/// let validation = WeakDataset::from_trajectories(&validation, &form)?;
+/// let score = fit.model.score(&validation)?;
+/// assert!(score.r_squared > 0.999, "{score}");
+/// // Against the truth (unknown in practice): within the noise.
+/// assert!(fit.model.compare(&truth, &validation)?.relative_error < 1e-2);
+/// # Ok::<(), metriplectic_runtime::Error>(())
+/// ```
 pub fn identify<S: MetriplecticSystem>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     config: &IdentifyConfig,
 ) -> Result<Identification<S>> {
     identify_with_observer(data, config, |_, _| ControlFlow::Continue(()))
@@ -85,7 +132,7 @@ pub fn identify<S: MetriplecticSystem>(
 /// record and the current model; returning [`ControlFlow::Break`] stops the
 /// run (e.g. from a progress bar's cancel button).
 pub fn identify_with_observer<S, F>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     config: &IdentifyConfig,
     observer: F,
 ) -> Result<Identification<S>>
@@ -94,7 +141,7 @@ where
     F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
 {
     check_dataset::<S>(data)?;
-    config.validate::<S>(data.len())?;
+    config.validate::<S>(data.equation_count())?;
     let model = Model::<S>::new(
         config
             .initial_entropy
@@ -134,7 +181,7 @@ where
 /// that had converged or given up on solver failures is returned as is.
 pub fn identify_resume<S: MetriplecticSystem>(
     path: impl AsRef<Path>,
-    data: &Dataset,
+    data: &impl IdentificationData,
     config: &IdentifyConfig,
 ) -> Result<Identification<S>> {
     identify_resume_with_observer(path, data, config, |_, _| ControlFlow::Continue(()))
@@ -144,7 +191,7 @@ pub fn identify_resume<S: MetriplecticSystem>(
 /// it sees only the iterations run after resuming.
 pub fn identify_resume_with_observer<S, F>(
     path: impl AsRef<Path>,
-    data: &Dataset,
+    data: &impl IdentificationData,
     config: &IdentifyConfig,
     observer: F,
 ) -> Result<Identification<S>>
@@ -153,7 +200,7 @@ where
     F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
 {
     check_dataset::<S>(data)?;
-    config.validate::<S>(data.len())?;
+    config.validate::<S>(data.equation_count())?;
     let state = checkpoint::load::<S>(path.as_ref(), data, config)?;
     match state.stopped {
         Some(
@@ -172,14 +219,15 @@ where
 }
 
 /// The samples batches are drawn from and those that score the model.
-struct Split {
-    pool: Dataset,
-    validation: Option<Dataset>,
+struct Split<D> {
+    pool: D,
+    validation: Option<D>,
 }
 
-impl Split {
-    fn new(data: &Dataset, config: &IdentifyConfig) -> Result<Self> {
-        let held_out = config.held_out(data.len());
+impl<D: IdentificationData> Split<D> {
+    fn new(data: &D, config: &IdentifyConfig) -> Result<Self> {
+        let count = data.equation_count();
+        let held_out = config.held_out(count);
         if config.batch_size.is_none() {
             return Ok(Self {
                 pool: data.clone(),
@@ -198,9 +246,8 @@ impl Split {
             _ => {
                 // A stream of its own, so that the batches do not depend on it.
                 let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x0ba1_1da7_e000_0000);
-                let mut order =
-                    rand::seq::index::sample(&mut rng, data.len(), data.len()).into_vec();
-                let validation = order.split_off(data.len() - held_out);
+                let mut order = rand::seq::index::sample(&mut rng, count, count).into_vec();
+                let validation = order.split_off(count - held_out);
                 order.sort_unstable();
                 Ok(Self {
                     pool: data.select(&order)?,
@@ -214,7 +261,7 @@ impl Split {
 /// The steps of one iteration on `batch` from `state.model` (and the trust
 /// radius), accepted under Theorem 1's rule; updates the model and radius.
 fn iterate_on<S: MetriplecticSystem>(
-    batch: &Dataset,
+    batch: &impl IdentificationData,
     config: &IdentifyConfig,
     state: &mut RunState<S>,
 ) -> Result<(Cost, StepRecord, StepRecord, Option<JointStepRecord>)> {
@@ -259,27 +306,22 @@ fn iterate_on<S: MetriplecticSystem>(
     Ok((cost_before, metric, entropy, joint))
 }
 
-/// The batch's scale for the relative tolerance: its mean |ẋ| per component.
-/// (1 when every ẋ is zero, so that the tolerance is then absolute).
-fn data_scale(data: &Dataset) -> f64 {
-    let derivatives = data.derivatives();
-    let mean = derivatives.iter().map(|v| v.abs()).sum::<f64>() / derivatives.len().max(1) as f64;
-    if mean > 0.0 {
-        mean
-    } else {
-        1.0
-    }
+/// The data's scale for the relative tolerance: the mean |target| per
+/// component (1 when every target is zero, so that the tolerance is then absolute).
+fn data_scale(data: &impl IdentificationData) -> f64 {
+    data.equations().scale()
 }
 
 /// The iterations of [`identify_with_observer`] from `state` on.
-fn run<S, F>(
-    data: &Dataset,
+fn run<S, D, F>(
+    data: &D,
     config: &IdentifyConfig,
     mut state: RunState<S>,
     mut observer: F,
 ) -> Result<Identification<S>>
 where
     S: MetriplecticSystem,
+    D: IdentificationData,
     F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
 {
     let split = Split::new(data, config)?;
@@ -291,7 +333,8 @@ where
             None => None,
             Some(q) => {
                 let indices =
-                    rand::seq::index::sample(&mut state.rng, split.pool.len(), q).into_vec();
+                    rand::seq::index::sample(&mut state.rng, split.pool.equation_count(), q)
+                        .into_vec();
                 Some(split.pool.select(&indices)?)
             }
         };
@@ -318,7 +361,7 @@ where
 
         let mut record = IterationRecord {
             iteration,
-            batch_size: batch.len(),
+            batch_size: batch.equation_count(),
             cost_before,
             metric,
             entropy,
@@ -414,10 +457,10 @@ fn track_best<S: MetriplecticSystem>(
 /// resumed from the checkpoint of a stopped run returns the same result;
 /// the checkpoint keeps the state before it, from which a longer run
 /// continues as if it had never stopped.
-fn finish<S: MetriplecticSystem>(
-    data: &Dataset,
+fn finish<S: MetriplecticSystem, D: IdentificationData>(
+    data: &D,
     config: &IdentifyConfig,
-    split: &Split,
+    split: &Split<D>,
     mut state: RunState<S>,
 ) -> Result<Identification<S>> {
     let stop_reason = state.stopped.unwrap_or(StopReason::MaxIterations);
@@ -436,7 +479,7 @@ fn finish<S: MetriplecticSystem>(
         let score = model_cost(&state.model, split.validation.as_ref().unwrap_or(data))?;
         state.history.iterations.push(IterationRecord {
             iteration: state.history.iterations.len() + 1,
-            batch_size: data.len(),
+            batch_size: data.equation_count(),
             cost_before,
             metric,
             entropy,
@@ -702,7 +745,7 @@ mod tests {
                 "{config:?} gave {err}"
             );
         }
-        let wrong_dim = Dataset::from_flat(3, vec![0.0; 3], vec![0.0; 3]).unwrap();
+        let wrong_dim = crate::Dataset::from_flat(3, vec![0.0; 3], vec![0.0; 3]).unwrap();
         assert!(matches!(
             identify::<Quadratic2d>(&wrong_dim, &alternation()),
             Err(Error::DimensionMismatch { .. })

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::config::IdentifyConfig;
 use super::search::{entropy_regression, metric_regression};
-use crate::data::Dataset;
+use crate::data::IdentificationData;
 use crate::error::Result;
 use crate::model::Model;
 use crate::solve::Regression;
@@ -80,7 +80,7 @@ impl std::fmt::Display for IdentifyWarning {
 
 /// The warnings for `model` identified from `data`.
 pub(crate) fn data_warnings<S: MetriplecticSystem>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     model: &Model<S>,
     config: &IdentifyConfig,
 ) -> Result<Vec<IdentifyWarning>> {
@@ -97,7 +97,7 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         })
         .collect();
     let p = S::entropy_coefficient_count();
-    let equations = data.len() * S::DIM;
+    let equations = data.equation_count() * S::DIM;
     let mut warnings = Vec::new();
     if equations < p + free.len() {
         warnings.push(IdentifyWarning::Underdetermined {

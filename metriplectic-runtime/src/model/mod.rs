@@ -8,7 +8,11 @@ use std::fmt;
 use std::marker::PhantomData;
 
 mod certificate;
+mod display;
 mod file;
+mod score;
+
+pub use score::Score;
 
 pub(crate) use certificate::check_metric;
 

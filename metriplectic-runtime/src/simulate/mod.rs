@@ -80,6 +80,57 @@ pub struct Simulation {
     pub stats: IntegrationStats,
 }
 
+/// Simulates `model` from each of `initial_states` (row-major, n per state)
+/// over [t0, t_end], in parallel across cores (rayon's pool:
+/// `RAYON_NUM_THREADS`), and returns one result per initial state, in
+/// order. Each simulation is independent, so the results do not depend on
+/// the thread count.
+///
+/// ```
+/// # use metriplectic_runtime::prelude::*;
+/// # use metriplectic_runtime::{simulate_many, SimulationOptions};
+/// # metriplectic! {
+/// #     pub struct Decay;
+/// #     state (x, y);
+/// #     poisson = [[0, 1], [-1, 0]];
+/// #     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
+/// #     entropy degree 2;
+/// #     metric degree 0;
+/// #     reference { entropy = -(x^2 + y^2); metric = [[1, 0], [0, 1]]; }
+/// # }
+/// let model = Model::<Decay>::reference()?;
+/// let runs = simulate_many(&model, &[1.0, 0.0, 0.0, 2.0], 0.0, 1.0, &SimulationOptions::default())?;
+/// assert_eq!(runs.len(), 2);
+/// assert!(runs.iter().all(|r| r.is_ok()));
+/// # Ok::<(), metriplectic_runtime::Error>(())
+/// ```
+///
+/// Errors (before simulating anything) if `initial_states` is not a whole
+/// number of states; a simulation that fails is an `Err` in its slot.
+pub fn simulate_many<S: MetriplecticSystem>(
+    model: &Model<S>,
+    initial_states: &[f64],
+    t0: f64,
+    t_end: f64,
+    options: &SimulationOptions,
+) -> Result<Vec<Result<Simulation>>> {
+    use rayon::prelude::*;
+    let n = S::DIM;
+    if !initial_states.len().is_multiple_of(n) {
+        return Err(invalid(
+            "initial states",
+            format!(
+                "{} values are not a whole number of {n}-dimensional states",
+                initial_states.len()
+            ),
+        ));
+    }
+    Ok(initial_states
+        .par_chunks_exact(n)
+        .map(|x0| simulate(model, x0, t0, t_end, options))
+        .collect())
+}
+
 /// Simulates `model` from `x0` over [t0, t_end] (t_end > t0).
 ///
 /// The trajectory carries the model's exact vector field at every output

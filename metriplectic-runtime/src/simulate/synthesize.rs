@@ -243,6 +243,7 @@ impl SynthesisOptions {
 /// let data = synthesize(&model, &options).unwrap();
 /// assert_eq!(data.train.len(), 3 * 11);
 /// assert_eq!(data.held_out.unwrap().len(), 11);
+/// assert!(data.measured.iter().all(|t| t.len() == 11 && t.derivatives().is_none()));
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SyntheticData {
@@ -255,6 +256,11 @@ pub struct SyntheticData {
     /// sample times), identified "0", "1", …; the last
     /// `held_out_trajectories` of them are the held-out ones.
     pub trajectories: Vec<Trajectory>,
+    /// What an instrument would record of the same trajectories: the
+    /// sampled states with the requested state noise (the very values in
+    /// `train` and `held_out`), no derivatives, same ids and times. The input
+    /// of the measured-data workflow (derivative estimation or the weak form).
+    pub measured: Vec<Trajectory>,
     /// Number of leading trajectories in the training set.
     pub train_trajectories: usize,
     /// Indices of corrupted samples in `train`, ascending.
@@ -321,6 +327,8 @@ pub fn synthesize<S: MetriplecticSystem>(
         None
     };
 
+    let measured = measured_trajectories(&trajectories, &train, held_out.as_ref())?;
+
     let mut outlier_samples = Vec::new();
     if let Some(outliers) = options.outliers {
         let mut rng = stream(options.seed, 2);
@@ -344,9 +352,36 @@ pub fn synthesize<S: MetriplecticSystem>(
         train,
         held_out,
         trajectories,
+        measured,
         train_trajectories: train_count,
         outlier_samples,
     })
+}
+
+/// The clean trajectories with their states replaced by the noisy samples of
+/// `train` and `held_out` (which hold them back to back, in order).
+fn measured_trajectories(
+    trajectories: &[Trajectory],
+    train: &Dataset,
+    held_out: Option<&Dataset>,
+) -> Result<Vec<Trajectory>> {
+    let mut states = train
+        .states()
+        .iter()
+        .chain(held_out.map_or(&[][..], Dataset::states))
+        .copied();
+    trajectories
+        .iter()
+        .map(|clean| {
+            let noisy: Vec<f64> = states.by_ref().take(clean.states().len()).collect();
+            let mut measured =
+                Trajectory::new(clean.names().to_vec(), clean.times().to_vec(), noisy, None)?;
+            if let Some(id) = clean.id() {
+                measured = measured.with_id(id);
+            }
+            Ok(measured)
+        })
+        .collect()
 }
 
 fn stream(seed: u64, stream: u64) -> ChaCha8Rng {

@@ -2,7 +2,7 @@
 //! the metric K fixed.
 
 use super::{check_sample_rows, SearchOptions, SearchReport};
-use crate::data::Dataset;
+use crate::data::IdentificationData;
 use crate::error::{check_finite, check_len, Result};
 use crate::identify::cost::{check_dataset, model_cost};
 use crate::model::Model;
@@ -37,7 +37,7 @@ pub struct EntropySearch {
 /// assembled from the system's per-sample
 /// [`entropy_block`](MetriplecticSystem::entropy_block).
 pub fn entropy_search<S: MetriplecticSystem>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     metric: &[f64],
     options: &SearchOptions,
 ) -> Result<EntropySearch> {
@@ -76,28 +76,17 @@ pub fn entropy_search<S: MetriplecticSystem>(
 /// The dense rows M J(x)ᵀ and targets ẋ − M ∇H(x) of every sample; errors
 /// name the first sample whose rows overflow.
 pub(crate) fn entropy_regression<S: MetriplecticSystem>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     metric: &[f64],
 ) -> Result<Regression> {
     let n = S::DIM;
     let p = S::entropy_coefficient_count();
-    let mut rows = vec![0.0; data.len() * n * p];
-    let mut target = vec![0.0; data.len() * n];
     let mut k = vec![0.0; n * n];
-    let mut drift = vec![0.0; n];
-    for (i, (x, xdot)) in data.iter().enumerate() {
+    let (rows, target) = data.equations().assemble(p, |j, x, block, drift| {
         S::metric_value(x, metric, &mut k);
-        S::entropy_block(x, &k, &mut rows[i * n * p..(i + 1) * n * p], &mut drift);
-        for j in 0..n {
-            target[i * n + j] = xdot[j] - drift[j];
-        }
-        check_sample_rows(
-            i,
-            x,
-            &rows[i * n * p..(i + 1) * n * p],
-            &target[i * n..(i + 1) * n],
-        )?;
-    }
+        S::entropy_block(x, &k, block, drift);
+        check_sample_rows(j, x, block, drift)
+    })?;
     Ok(Regression {
         width: p,
         rows,
@@ -179,7 +168,7 @@ mod tests {
             entropy_search::<Quadratic2d>(&data, &metric[1..], &options),
             Err(Error::DimensionMismatch { .. })
         ));
-        let wrong_dim = Dataset::from_flat(3, vec![0.0; 3], vec![0.0; 3]).unwrap();
+        let wrong_dim = crate::Dataset::from_flat(3, vec![0.0; 3], vec![0.0; 3]).unwrap();
         assert!(matches!(
             entropy_search::<Quadratic2d>(&wrong_dim, &metric, &options),
             Err(Error::DimensionMismatch { .. })

@@ -3,7 +3,7 @@
 
 use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
 use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
-use crate::data::Dataset;
+use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::cost::{check_dataset, model_cost, Cost};
 use crate::model::Model;
@@ -83,7 +83,7 @@ pub struct JointStep {
 /// penalty keep their unpenalised optimum, while (nearly) flat directions
 /// get the shortest step. The predicted cost excludes the penalty.
 pub fn joint_step<S: MetriplecticSystem>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     model: &Model<S>,
     radius: f64,
     options: &SearchOptions,

@@ -4,7 +4,7 @@
 
 use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
 use super::{check_sample_rows, SearchOptions, SearchReport};
-use crate::data::Dataset;
+use crate::data::IdentificationData;
 use crate::error::{check_finite, check_len, Result};
 use crate::identify::cost::{check_dataset, model_cost};
 use crate::model::Model;
@@ -45,7 +45,7 @@ pub struct MetricSearch {
 /// slack, which lies in the PSD cone), so K(x) = Z(x)ᵀ Q₁ Z(x) holds exactly
 /// and K(x) ⪰ 0 up to rounding whatever the solver's feasibility tolerance.
 pub fn metric_search<S: MetriplecticSystem>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     entropy: &[f64],
     options: &SearchOptions,
 ) -> Result<MetricSearch> {
@@ -90,36 +90,20 @@ pub fn metric_search<S: MetriplecticSystem>(
 /// The dense rows of θ ↦ K(x; θ) g and targets ẋ − Π g of every sample;
 /// errors name the first sample whose rows overflow.
 pub(crate) fn metric_regression<S: MetriplecticSystem>(
-    data: &Dataset,
+    data: &impl IdentificationData,
     entropy: &[f64],
 ) -> Result<Regression> {
     let n = S::DIM;
     let width = S::metric_coefficient_count();
-    let mut rows = vec![0.0; data.len() * n * width];
-    let mut target = vec![0.0; data.len() * n];
     let mut gradient = vec![0.0; n];
     let mut grad_h = vec![0.0; n];
-    let mut drift = vec![0.0; n];
-    for (i, (x, xdot)) in data.iter().enumerate() {
+    let (rows, target) = data.equations().assemble(width, |j, x, block, drift| {
         S::entropy_gradient(x, entropy, &mut gradient);
         S::hamiltonian_gradient(x, &mut grad_h);
         gradient.iter_mut().zip(&grad_h).for_each(|(g, h)| *g += h);
-        S::metric_block(
-            x,
-            &gradient,
-            &mut rows[i * n * width..(i + 1) * n * width],
-            &mut drift,
-        );
-        for j in 0..n {
-            target[i * n + j] = xdot[j] - drift[j];
-        }
-        check_sample_rows(
-            i,
-            x,
-            &rows[i * n * width..(i + 1) * n * width],
-            &target[i * n..(i + 1) * n],
-        )?;
-    }
+        S::metric_block(x, &gradient, block, drift);
+        check_sample_rows(j, x, block, drift)
+    })?;
     Ok(Regression {
         width,
         rows,

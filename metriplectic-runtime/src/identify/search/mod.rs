@@ -72,16 +72,16 @@ pub(crate) fn check_eta(eta: f64) -> Result<()> {
     }
 }
 
-/// Errors unless the regression rows and targets of sample `index` (state
+/// Errors unless the regression rows and drift of sample `index` (state
 /// `x`) are finite: a state so large that its monomials overflow cannot be
 /// fitted.
 pub(crate) fn check_sample_rows(
     index: usize,
     x: &[f64],
     rows: &[f64],
-    target: &[f64],
+    drift: &[f64],
 ) -> Result<()> {
-    if rows.iter().chain(target).all(|v| v.is_finite()) {
+    if rows.iter().chain(drift).all(|v| v.is_finite()) {
         Ok(())
     } else {
         Err(invalid(

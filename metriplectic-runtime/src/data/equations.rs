@@ -1,0 +1,177 @@
+//! What identification fits: equations linear in the model's unknown
+//! coefficients. Each equation says that a weighted sum of the vector field
+//! at sampled states equals a measured target (n components):
+//!
+//! ```text
+//! Σ_j w_j f(x_j) = y.
+//! ```
+//!
+//! Samples (x, ẋ) are the one-term case, f(xᵢ) = ẋᵢ ([`Dataset`](crate::Dataset));
+//! the weak form's windows are quadratures of a test function
+//! ([`WeakDataset`](crate::WeakDataset)). The searches assemble every
+//! equation's rows from the system's per-sample blocks, so both kinds of
+//! data run through the same subproblems and the same joint step.
+
+use crate::error::Result;
+
+/// Data identification can fit: samples with derivatives ([`Dataset`](crate::Dataset))
+/// or weak-form windows of trajectories ([`WeakDataset`](crate::WeakDataset)).
+/// Sealed: the runtime implements it for these two types only.
+pub trait IdentificationData: sealed::Sealed + Clone + std::fmt::Debug + Send + Sync {
+    /// State dimension n.
+    fn dim(&self) -> usize {
+        self.equations().dim
+    }
+
+    /// Number of equations (each of n components): the samples of a
+    /// [`Dataset`](crate::Dataset), the windows of a
+    /// [`WeakDataset`](crate::WeakDataset). Minibatches draw equations.
+    fn equation_count(&self) -> usize {
+        self.equations().len()
+    }
+}
+
+pub(crate) mod sealed {
+    /// The crate-internal interface of [`IdentificationData`](super::IdentificationData).
+    pub trait Sealed: Sized {
+        /// The equations as a borrowed view.
+        fn equations(&self) -> super::Equations<'_>;
+        /// The equations at `indices`, in that order (repeats allowed),
+        /// with only the samples they read.
+        fn select(&self, indices: &[usize]) -> crate::Result<Self>;
+    }
+}
+
+/// A borrowed view of equations (crate-internal: the module is private).
+#[derive(Debug, Clone, Copy)]
+pub struct Equations<'a> {
+    /// State dimension n.
+    pub dim: usize,
+    /// The sampled states, row-major.
+    pub states: &'a [f64],
+    /// The targets y, n per equation.
+    pub targets: &'a [f64],
+    /// The terms (sample, weight) of each equation; `None`: equation i is
+    /// sample i with weight 1.
+    pub terms: Option<Terms<'a>>,
+}
+
+/// The terms of every equation: those of equation e are at
+/// `offsets[e]..offsets[e + 1]` of `samples` and `weights`.
+#[derive(Debug, Clone, Copy)]
+pub struct Terms<'a> {
+    pub offsets: &'a [usize],
+    pub samples: &'a [usize],
+    pub weights: &'a [f64],
+}
+
+impl<'a> Equations<'a> {
+    /// Number of equations.
+    pub fn len(&self) -> usize {
+        self.targets.len() / self.dim.max(1)
+    }
+
+    /// Number of sampled states.
+    pub fn sample_count(&self) -> usize {
+        self.states.len() / self.dim.max(1)
+    }
+
+    /// Sampled state j.
+    pub fn state(&self, j: usize) -> &'a [f64] {
+        &self.states[j * self.dim..(j + 1) * self.dim]
+    }
+
+    /// The target of equation e.
+    pub fn target(&self, e: usize) -> &'a [f64] {
+        &self.targets[e * self.dim..(e + 1) * self.dim]
+    }
+
+    /// The terms (sample, weight) of equation e.
+    pub fn terms_of(&self, e: usize) -> impl Iterator<Item = (usize, f64)> + 'a {
+        let (range, terms) = match self.terms {
+            None => (e..e + 1, None),
+            Some(terms) => (terms.offsets[e]..terms.offsets[e + 1], Some(terms)),
+        };
+        range.map(move |k| match terms {
+            None => (k, 1.0),
+            Some(terms) => (terms.samples[k], terms.weights[k]),
+        })
+    }
+
+    /// Mean |y| per component: the data's scale for relative tolerances
+    /// (1 if every target is zero, so that a tolerance is then absolute).
+    pub fn scale(&self) -> f64 {
+        let mean =
+            self.targets.iter().map(|v| v.abs()).sum::<f64>() / self.targets.len().max(1) as f64;
+        if mean > 0.0 {
+            mean
+        } else {
+            1.0
+        }
+    }
+
+    /// The words a fingerprint hashes: dimension, states, targets, terms.
+    pub fn words(&self) -> impl Iterator<Item = u64> + 'a {
+        let terms = self.terms.into_iter().flat_map(|t| {
+            t.offsets
+                .iter()
+                .chain(t.samples)
+                .map(|&v| v as u64)
+                .chain(t.weights.iter().map(|w| w.to_bits()))
+        });
+        std::iter::once(self.dim as u64)
+            .chain(self.states.iter().map(|v| v.to_bits()))
+            .chain(self.targets.iter().map(|v| v.to_bits()))
+            .chain(terms)
+    }
+
+    /// Rows and targets of every equation, n rows each: Σ w·block(x) and
+    /// y − Σ w·drift(x), from the per-sample block `block(j, x, rows,
+    /// drift)` of width `width`. Each sample's block is computed once.
+    pub fn assemble(
+        &self,
+        width: usize,
+        mut block: impl FnMut(usize, &[f64], &mut [f64], &mut [f64]) -> Result<()>,
+    ) -> Result<(Vec<f64>, Vec<f64>)> {
+        let n = self.dim;
+        let equations = self.len();
+        let mut rows = vec![0.0; equations * n * width];
+        let mut targets = self.targets.to_vec();
+        let mut drift = vec![0.0; n];
+        match self.terms {
+            None => {
+                for e in 0..equations {
+                    let out = &mut rows[e * n * width..(e + 1) * n * width];
+                    block(e, self.state(e), out, &mut drift)?;
+                    for (t, d) in targets[e * n..(e + 1) * n].iter_mut().zip(&drift) {
+                        *t -= d;
+                    }
+                }
+            }
+            Some(_) => {
+                let samples = self.sample_count();
+                let mut blocks = vec![0.0; samples * n * width];
+                let mut drifts = vec![0.0; samples * n];
+                for j in 0..samples {
+                    block(
+                        j,
+                        self.state(j),
+                        &mut blocks[j * n * width..(j + 1) * n * width],
+                        &mut drifts[j * n..(j + 1) * n],
+                    )?;
+                }
+                for e in 0..equations {
+                    let out = &mut rows[e * n * width..(e + 1) * n * width];
+                    let target = &mut targets[e * n..(e + 1) * n];
+                    for (j, w) in self.terms_of(e) {
+                        let source = &blocks[j * n * width..(j + 1) * n * width];
+                        out.iter_mut().zip(source).for_each(|(o, s)| *o += w * s);
+                        let source = &drifts[j * n..(j + 1) * n];
+                        target.iter_mut().zip(source).for_each(|(t, d)| *t -= w * d);
+                    }
+                }
+            }
+        }
+        Ok((rows, targets))
+    }
+}

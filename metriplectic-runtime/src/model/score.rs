@@ -1,0 +1,121 @@
+//! How well a model fits data, or another model.
+
+use serde::{Deserialize, Serialize};
+
+use super::Model;
+use crate::data::IdentificationData;
+use crate::error::Result;
+use crate::identify::check_dataset;
+use crate::system::MetriplecticSystem;
+
+/// Agreement of a model's predictions with targets (measured ẋ, weak-form
+/// targets, or another model's predictions), pooled over every component.
+///
+/// ```
+/// # use metriplectic_runtime::prelude::*;
+/// # metriplectic! {
+/// #     pub struct Decay;
+/// #     state (x, y);
+/// #     poisson = [[0, 1], [-1, 0]];
+/// #     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
+/// #     entropy degree 2;
+/// #     metric degree 0;
+/// #     reference { entropy = -(x^2 + y^2); metric = [[1, 0], [0, 1]]; }
+/// # }
+/// let truth = Model::<Decay>::reference()?;
+/// // f(x, y) = (Π + I)∇E = (−x − y, x − y).
+/// let data = Dataset::from_rows(2, &[[1.0, 0.0], [0.0, 1.0]], &[[-1.0, 1.0], [-1.0, -1.0]])?;
+/// let score = truth.score(&data)?;
+/// assert!(score.relative_error < 1e-15 && (score.r_squared - 1.0).abs() < 1e-15);
+/// # Ok::<(), metriplectic_runtime::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Score {
+    /// ‖prediction − target‖₂ / ‖target‖₂.
+    pub relative_error: f64,
+    /// Mean |prediction − target| per component.
+    pub mean_abs_residual: f64,
+    /// 1 − Σ(target − prediction)² / Σ(target − mean target)², the mean
+    /// taken per state component (1 is a perfect fit).
+    pub r_squared: f64,
+    /// Number of equations (samples or weak-form windows) scored.
+    pub equations: usize,
+}
+
+impl std::fmt::Display for Score {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "relative error {:.3e}, mean |residual| {:.3e}, R² {:.6} over {} equations",
+            self.relative_error, self.mean_abs_residual, self.r_squared, self.equations
+        )
+    }
+}
+
+impl<S: MetriplecticSystem> Model<S> {
+    /// Scores the model's predictions against `data`'s targets: its vector
+    /// field against measured ẋ, or its weak-form integrals against the
+    /// weak-form targets.
+    pub fn score(&self, data: &impl IdentificationData) -> Result<Score> {
+        let predictions = self.predictions(data)?;
+        let equations = data.equations();
+        Ok(score(S::DIM, &predictions, equations.targets))
+    }
+
+    /// Scores the model against `reference` on the states of `data`
+    /// (e.g. an identified model against the true one on held-out states):
+    /// the targets are `reference`'s predictions, not `data`'s targets.
+    pub fn compare(&self, reference: &Model<S>, data: &impl IdentificationData) -> Result<Score> {
+        let predictions = self.predictions(data)?;
+        let targets = reference.predictions(data)?;
+        Ok(score(S::DIM, &predictions, &targets))
+    }
+
+    /// The model's prediction of every equation's target: f at each sample
+    /// (weighted and summed for weak-form equations).
+    fn predictions(&self, data: &impl IdentificationData) -> Result<Vec<f64>> {
+        check_dataset::<S>(data)?;
+        let equations = data.equations();
+        let n = S::DIM;
+        let mut fields = vec![0.0; equations.sample_count() * n];
+        for (j, out) in fields.chunks_exact_mut(n).enumerate() {
+            self.vector_field(equations.state(j), out)?;
+        }
+        let mut predictions = vec![0.0; equations.len() * n];
+        for (e, out) in predictions.chunks_exact_mut(n).enumerate() {
+            for (j, w) in equations.terms_of(e) {
+                out.iter_mut()
+                    .zip(&fields[j * n..(j + 1) * n])
+                    .for_each(|(p, f)| *p += w * f);
+            }
+        }
+        Ok(predictions)
+    }
+}
+
+fn score(n: usize, predictions: &[f64], targets: &[f64]) -> Score {
+    let count = targets.len() / n.max(1);
+    let mut means = vec![0.0; n];
+    for row in targets.chunks_exact(n) {
+        means
+            .iter_mut()
+            .zip(row)
+            .for_each(|(m, t)| *m += t / count as f64);
+    }
+    let (mut residual2, mut target2, mut spread2, mut absolute) = (0.0, 0.0, 0.0, 0.0);
+    for (prediction, target) in predictions.chunks_exact(n).zip(targets.chunks_exact(n)) {
+        for j in 0..n {
+            let r = prediction[j] - target[j];
+            residual2 += r * r;
+            absolute += r.abs();
+            target2 += target[j] * target[j];
+            spread2 += (target[j] - means[j]).powi(2);
+        }
+    }
+    Score {
+        relative_error: (residual2 / target2).sqrt(),
+        mean_abs_residual: absolute / targets.len().max(1) as f64,
+        r_squared: 1.0 - residual2 / spread2,
+        equations: count,
+    }
+}
