@@ -50,17 +50,27 @@ fn saving_onto_a_full_disk_keeps_the_previous_file() {
     assert!(std::fs::metadata(&path).unwrap().len() > 2048);
     // `ulimit -f 2` caps files at 1–2 KiB (writes beyond fail with EFBIG,
     // as on a full disk); SIGXFSZ is ignored so the write returns an error.
+    // The child's output goes to pipes: the limit applies to every file the
+    // child writes, and an inherited stdout redirected to a log file (as in
+    // CI) is already past it.
     let exe = std::env::current_exe().unwrap();
-    let status = std::process::Command::new("sh")
+    let output = std::process::Command::new("sh")
         .arg("-c")
-        .arg("trap '' XFSZ; ulimit -f 2; exec \"$0\" --exact model_files::save_child --ignored --test-threads=1")
+        .arg("trap '' XFSZ; ulimit -f 2; exec \"$0\" --exact model_files::save_child --ignored --test-threads=1 --nocapture")
         .arg(&exe)
         .env("METRIPLECTIC_SAVE_PATH", &path)
-        .status()
+        .stdin(std::process::Stdio::null())
+        .output()
         .unwrap();
     assert!(
-        status.success(),
-        "the child's save did not fail as it should"
+        output.status.success(),
+        "the child's save did not fail as it should:\n{}\n{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        String::from_utf8_lossy(&output.stdout).contains("child: "),
+        "the child did not run the save"
     );
     // The previous model is intact and nothing else is left beside it.
     assert_eq!(Model::<RigidBody>::load(&path).unwrap(), previous);
