@@ -55,7 +55,9 @@ pub struct IdentifyConfig {
     /// Seed of the minibatch generator (ChaCha8): equal seeds give equal
     /// runs. Default 0.
     pub seed: u64,
-    /// Initial entropy coefficients ψ⁽⁰⁾. Default `None`: zeros.
+    /// Initial entropy coefficients ψ⁽⁰⁾. Default `None`: fitted, the
+    /// entropy search's solution with the initial metric (on the full data,
+    /// or on q samples of a minibatch run), zeros if that solve fails.
     pub initial_entropy: Option<Vec<f64>>,
     /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite).
     /// Default `None`: the identity metric.

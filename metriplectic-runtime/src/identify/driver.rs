@@ -43,10 +43,12 @@ pub struct Identification<S: MetriplecticSystem> {
 /// entropy search with the metric fixed, on the same batch. A step replaces
 /// the current model only if its solve ended usable ([`SolveStatus::is_usable`](crate::SolveStatus::is_usable)),
 /// its coefficients are finite, and its cost **on the same batch**, recomputed
-/// from the coefficients, is not larger than the current model's. That is the
-/// hypothesis of the paper's Theorem 1, so with the full batch the cost is
-/// non-increasing by construction; every rejected step is recorded in the
-/// [`History`].
+/// from the coefficients, is lower than the current model's. The paper's
+/// Theorem 1 needs "not larger"; requiring a decrease also refuses the
+/// free moves of a block the cost does not see (with S = 0 every metric has
+/// the same cost, and accepting one near K = 0 would freeze the entropy
+/// search), so the cost still never increases and every rejected step is
+/// recorded in the [`History`].
 ///
 /// # Iteration schemes
 ///
@@ -142,16 +144,16 @@ where
 {
     check_dataset::<S>(data)?;
     config.validate::<S>(data.equation_count())?;
-    let model = Model::<S>::new(
-        config
-            .initial_entropy
-            .clone()
-            .unwrap_or_else(|| vec![0.0; S::entropy_coefficient_count()]),
-        config
-            .initial_metric
-            .clone()
-            .unwrap_or_else(|| identity_metric::<S>(1.0)),
-    )?;
+    let split = Split::new(data, config)?;
+    let metric = config
+        .initial_metric
+        .clone()
+        .unwrap_or_else(|| identity_metric::<S>(1.0));
+    let entropy = match &config.initial_entropy {
+        Some(entropy) => entropy.clone(),
+        None => fitted_start::<S>(&split.pool, config, &metric)?,
+    };
+    let model = Model::<S>::new(entropy, metric)?;
     let state = RunState {
         model,
         history: History::default(),
@@ -166,7 +168,7 @@ where
         best: None,
         since_improvement: 0,
     };
-    run(data, config, state, observer)
+    run(data, config, &split, state, observer)
 }
 
 /// Continues the run saved in the checkpoint at `path` (written by a run
@@ -214,7 +216,7 @@ where
                 warnings,
             })
         }
-        _ => run(data, config, state, observer),
+        _ => run(data, config, &Split::new(data, config)?, state, observer),
     }
 }
 
@@ -256,6 +258,36 @@ impl<D: IdentificationData> Split<D> {
             }
         }
     }
+}
+
+/// The default start: the entropy search's fit with the initial metric, on
+/// the batch pool (a minibatch run: q of its equations, drawn from a stream
+/// of their own), or zeros if that solve fails.
+///
+/// Starting from S = 0 instead misleads the first metric search: it fits
+/// (Π + K)∇H to the data, where the best K is often near 0, and with K ≈ 0
+/// the entropy search has nothing to act on.
+fn fitted_start<S: MetriplecticSystem>(
+    pool: &impl IdentificationData,
+    config: &IdentifyConfig,
+    metric: &[f64],
+) -> Result<Vec<f64>> {
+    let batch = match config.batch_size {
+        Some(q) if q < pool.equation_count() => {
+            let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x57a7_0f5e_a7c4_0000);
+            let indices = rand::seq::index::sample(&mut rng, pool.equation_count(), q).into_vec();
+            Some(pool.select(&indices)?)
+        }
+        _ => None,
+    };
+    let search = entropy_search::<S>(batch.as_ref().unwrap_or(pool), metric, &config.search)?;
+    let usable =
+        search.report.status.is_usable() && search.coefficients.iter().all(|c| c.is_finite());
+    Ok(if usable {
+        search.coefficients
+    } else {
+        vec![0.0; S::entropy_coefficient_count()]
+    })
 }
 
 /// The steps of one iteration on `batch` from `state.model` (and the trust
@@ -316,6 +348,7 @@ fn data_scale(data: &impl IdentificationData) -> f64 {
 fn run<S, D, F>(
     data: &D,
     config: &IdentifyConfig,
+    split: &Split<D>,
     mut state: RunState<S>,
     mut observer: F,
 ) -> Result<Identification<S>>
@@ -324,7 +357,6 @@ where
     D: IdentificationData,
     F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
 {
-    let split = Split::new(data, config)?;
     let first = state.history.iterations.len() + 1;
     state.stopped = None;
 
@@ -427,7 +459,7 @@ where
     }
     // A resumed run whose cap was already reached runs no iteration.
     state.stopped = Some(state.stopped.unwrap_or(StopReason::MaxIterations));
-    finish(data, config, &split, state)
+    finish(data, config, split, state)
 }
 
 /// Keeps the best-scoring model and counts iterations without improvement.
@@ -503,7 +535,7 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
 }
 
 /// Accepts a candidate if its solve is usable and its recomputed cost is
-/// finite and no worse than `current`; `apply` installs it.
+/// finite and lower than `current`; `apply` installs it.
 fn decide<S: MetriplecticSystem>(
     model: &mut Model<S>,
     current: Cost,
@@ -512,9 +544,9 @@ fn decide<S: MetriplecticSystem>(
 ) -> StepRecord {
     let outcome = match report.cost {
         Some(candidate) if report.status.is_usable() && candidate.is_finite() => {
-            if candidate.sum <= current.sum && apply(model).is_ok() {
+            if candidate.sum < current.sum && apply(model).is_ok() {
                 StepOutcome::Accepted
-            } else if candidate.sum <= current.sum {
+            } else if candidate.sum < current.sum {
                 StepOutcome::RejectedFailed
             } else {
                 StepOutcome::RejectedWorse
@@ -574,6 +606,7 @@ mod tests {
         let config = IdentifyConfig {
             max_iterations: 6,
             tolerance: 0.0,
+            initial_entropy: Some(vec![0.0; Quadratic2d::entropy_coefficient_count()]),
             ..alternation()
         };
         let result = identify::<Quadratic2d>(&data, &config).unwrap();
@@ -582,6 +615,25 @@ mod tests {
         let first = result.history.iterations[0].cost_before.sum;
         let last = result.history.iterations[5].entropy.cost_after.sum;
         assert!(last < 0.5 * first, "{first} -> {last}");
+    }
+
+    /// The default start (the entropy search's fit with K = I) avoids that
+    /// stationary point: the alternation alone reaches the exact data.
+    #[test]
+    fn the_fitted_start_reaches_exact_data_from_no_knowledge() {
+        let data = reference_data(60, 11);
+        let config = IdentifyConfig {
+            max_iterations: 20,
+            ..alternation()
+        };
+        let result = identify::<Quadratic2d>(&data, &config).unwrap();
+        assert_eq!(
+            result.stop_reason,
+            StopReason::Converged,
+            "{:?}",
+            result.history
+        );
+        assert_non_increasing(&result.history);
     }
 
     #[test]
@@ -786,7 +838,14 @@ mod tests {
             best: None,
             since_improvement: 0,
         };
-        let result = run(&data, &config, state, |_, _| ControlFlow::Continue(())).unwrap();
+        let result = run(
+            &data,
+            &config,
+            &Split::new(&data, &config).unwrap(),
+            state,
+            |_, _| ControlFlow::Continue(()),
+        )
+        .unwrap();
         assert_eq!(result.stop_reason, StopReason::SolverFailures);
         assert_eq!(result.history.iterations.len(), 2);
         assert!(result.history.iterations.iter().all(|r| {

@@ -14,7 +14,7 @@ use crate::solve::SolveStatus;
 pub enum StepOutcome {
     /// The result replaced the current model.
     Accepted,
-    /// The solve succeeded but its cost on the batch was higher than the
+    /// The solve succeeded but its cost on the batch was not lower than the
     /// current model's; the current model was kept.
     RejectedWorse,
     /// The solve failed (status not usable, or non-finite coefficients);
