@@ -12,6 +12,7 @@
 //! | `entropy_search`, `metric_search` | the two convex subproblems on the paper systems |
 //! | `solver_status` | solver statuses and the joint step on the paper systems |
 //! | `identification` | Algorithms 1 and 2 and the joint scheme |
+//! | `stop_reasons`, `stopping` | why a run stopped, and that it stops by itself once its model is final |
 //! | `checkpoint_resume` | checkpoints and resuming a run |
 //! | `determinism` | identical results for a seed |
 //! | `degenerate_systems` | systems at the edges of the DSL |
@@ -43,3 +44,4 @@ mod simulation;
 mod solver_status;
 mod solver_trouble;
 mod stop_reasons;
+mod stopping;
