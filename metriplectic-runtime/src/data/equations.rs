@@ -12,7 +12,8 @@
 //! equation's rows from the system's per-sample blocks, so both kinds of
 //! data run through the same subproblems and the same joint step.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::system::MetriplecticSystem;
 
 /// Data identification can fit: samples with derivatives ([`Dataset`](crate::Dataset))
 /// or weak-form windows of trajectories ([`WeakDataset`](crate::WeakDataset)).
@@ -173,5 +174,18 @@ impl<'a> Equations<'a> {
             }
         }
         Ok((rows, targets))
+    }
+}
+
+/// Errors unless `data` has the system's state dimension.
+pub(crate) fn check_dataset<S: MetriplecticSystem>(data: &impl IdentificationData) -> Result<()> {
+    if data.dim() == S::DIM {
+        Ok(())
+    } else {
+        Err(Error::DimensionMismatch {
+            what: format!("dataset state dimension for system `{}`", S::NAME),
+            expected: S::DIM,
+            found: data.dim(),
+        })
     }
 }

@@ -14,6 +14,7 @@ pub use csv::{
 };
 pub use dataset::Dataset;
 pub use derivative::{differentiate, estimate_all, estimate_derivatives, DerivativeMethod};
+pub(crate) use equations::check_dataset;
 pub use equations::IdentificationData;
 pub use trajectory::{dataset_from_trajectories, split_by_trajectory, Trajectory};
 pub use weak::{WeakDataset, WeakForm};

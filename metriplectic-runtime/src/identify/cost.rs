@@ -6,8 +6,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::data::IdentificationData;
-use crate::error::{Error, Result};
+use crate::data::{check_dataset, IdentificationData};
+use crate::error::Result;
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -74,17 +74,4 @@ pub fn model_cost<S: MetriplecticSystem>(
 
 fn l1_distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum()
-}
-
-/// Errors unless `data` has the system's state dimension.
-pub(crate) fn check_dataset<S: MetriplecticSystem>(data: &impl IdentificationData) -> Result<()> {
-    if data.dim() == S::DIM {
-        Ok(())
-    } else {
-        Err(Error::DimensionMismatch {
-            what: format!("dataset state dimension for system `{}`", S::NAME),
-            expected: S::DIM,
-            found: data.dim(),
-        })
-    }
 }

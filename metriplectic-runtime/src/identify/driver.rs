@@ -9,13 +9,14 @@ use rand_chacha::ChaCha8Rng;
 
 use super::checkpoint;
 use super::config::{IdentifyConfig, IterationScheme, Validation};
-use super::cost::{check_dataset, model_cost, Cost};
+use super::cost::{model_cost, Cost};
 use super::history::{
     History, IterationRecord, JointStepRecord, StepOutcome, StepRecord, StopReason,
 };
 use super::search::{entropy_search, joint_step, metric_search, SearchReport};
 use super::state::RunState;
 use super::warnings::{data_warnings, IdentifyWarning};
+use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{Error, Result};
 use crate::model::{identity_metric, Model};

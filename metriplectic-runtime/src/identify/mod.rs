@@ -11,8 +11,6 @@ pub(crate) mod search;
 mod state;
 mod warnings;
 
-pub(crate) use cost::check_dataset;
-
 pub use checkpoint::CheckpointConfig;
 pub use config::{IdentifyConfig, IterationScheme, Stagnation, TrustRegion, Validation};
 pub use cost::{model_cost, Cost};

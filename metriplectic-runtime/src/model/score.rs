@@ -3,9 +3,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::Model;
+use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::Result;
-use crate::identify::check_dataset;
 use crate::system::MetriplecticSystem;
 
 /// Agreement of a model's predictions with targets (measured ẋ, weak-form

@@ -2,9 +2,10 @@
 //! the metric K fixed.
 
 use super::{check_sample_rows, SearchOptions, SearchReport};
+use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{check_finite, check_len, Result};
-use crate::identify::cost::{check_dataset, model_cost};
+use crate::identify::cost::model_cost;
 use crate::model::Model;
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;

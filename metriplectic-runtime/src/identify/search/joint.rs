@@ -3,9 +3,10 @@
 
 use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
 use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
+use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
-use crate::identify::cost::{check_dataset, model_cost, Cost};
+use crate::identify::cost::{model_cost, Cost};
 use crate::model::Model;
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
