@@ -805,13 +805,10 @@ mod tests {
         ));
     }
 
-    #[test]
-    fn solver_failures_after_progress_return_the_kept_model() {
-        // A run that has accepted steps (here: resumed from such a state)
-        // and then only sees failing solves stops with SolverFailures and
-        // returns the model it had, not an error.
-        let data = reference_data(20, 17);
-        let config = IdentifyConfig {
+    /// The alternation with a solver allowed one interior-point iteration,
+    /// which solves nothing, stopping after two failed iterations.
+    fn failing_solver() -> IdentifyConfig {
+        IdentifyConfig {
             search: SearchOptions {
                 solver: SolverSettings {
                     max_iter: 1,
@@ -821,7 +818,16 @@ mod tests {
             },
             max_failed_iterations: 2,
             ..alternation()
-        };
+        }
+    }
+
+    #[test]
+    fn solver_failures_after_progress_return_the_kept_model() {
+        // A run that has accepted steps (here: resumed from such a state)
+        // and then only sees failing solves stops with SolverFailures and
+        // returns the model it had, not an error.
+        let data = reference_data(20, 17);
+        let config = failing_solver();
         // Off the truth, so the data are not already fitted (cost > 0).
         let reference = Model::<Quadratic2d>::reference().unwrap();
         let entropy = reference.entropy_coefficients().iter().map(|c| c + 0.1);
@@ -862,17 +868,7 @@ mod tests {
         // fails, the model stays at its start, and with nothing ever
         // accepted the run ends in a typed error.
         let data = reference_data(20, 16);
-        let config = IdentifyConfig {
-            search: SearchOptions {
-                solver: SolverSettings {
-                    max_iter: 1,
-                    ..SolverSettings::default()
-                },
-                ..SearchOptions::default()
-            },
-            max_failed_iterations: 2,
-            ..alternation()
-        };
+        let config = failing_solver();
         let mut models = Vec::new();
         let err = identify_with_observer::<Quadratic2d, _>(&data, &config, |record, model| {
             assert_eq!(record.metric.outcome, StepOutcome::RejectedFailed);
