@@ -123,7 +123,8 @@ impl WeakForm {
 /// let x: Vec<f64> = t.iter().flat_map(|t| [t.cos(), -t.sin()]).collect();
 /// let traj = Trajectory::new(vec!["q".into(), "p".into()], t, x, None).unwrap();
 /// let data = WeakDataset::from_trajectories(&[traj], &WeakForm::default()).unwrap();
-/// assert_eq!(data.equation_count(), 6); // windows starting at samples 0, 5, …, 25
+/// // Windows of 15 samples start at samples 0, 1, …, 25 (stride 1).
+/// assert_eq!(data.equation_count(), 26);
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct WeakDataset {
