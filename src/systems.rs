@@ -1,5 +1,6 @@
 //! The paper's two systems, declared once for the examples, the tests and
-//! the benchmarks, and noise-free samples of their reference models.
+//! the benchmarks, noise-free samples of their reference models, and a
+//! third system beyond the paper ([`Duffing`]) for the `from_csv` example.
 //!
 //! Both come from the authors' MATLAB code. The 2-D free energy printed in
 //! the paper, −½(p² + 4p⁴ − 4q⁴)², is a typo: the code and the paper's
@@ -43,6 +44,30 @@ metriplectic! {
     reference {
         entropy = -0.5 * (px^2 + py^2 + pz^2 - 1)^2 - 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
         metric = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
+    }
+}
+
+metriplectic! {
+    /// A damped Duffing oscillator in a double well (not from the paper):
+    /// ẍ = x − x³ − γẋ with γ = 0.5, as ẋ = v, v̇ = x − x³ − γv.
+    ///
+    /// H = ½v² + ¼x⁴ − ½x² is the oscillator's mechanical energy and the free
+    /// energy is E = −H, largest (¼) at the wells' bottoms (±1, 0), where
+    /// every trajectory ends. With Π = [[0, −1], [1, 0]], Π∇E is the
+    /// undamped motion and K∇E with K = diag(0, γ) ⪰ 0 the friction on v,
+    /// so dE/dt = γv² ≥ 0 and the entropy is S = E − H = −2H. The pair
+    /// (S, K) is the only one with a constant K ⪰ 0 that gives this flow,
+    /// so identification recovers it, not only the vector field.
+    pub struct Duffing;
+    state (x, v);
+    const gamma = 0.5;
+    poisson = [[0, -1], [1, 0]];
+    hamiltonian = 0.5 * v^2 + 0.25 * x^4 - 0.5 * x^2;
+    entropy degree 4;
+    metric degree 0;
+    reference {
+        entropy = -(v^2 + 0.5 * x^4 - x^2);
+        metric = [[0, 0], [0, gamma]];
     }
 }
 
