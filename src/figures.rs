@@ -1,5 +1,6 @@
 //! The reproduction's figures: the paper's trajectory and loss plots, plus
-//! the free energy along simulated trajectories.
+//! the free energy along simulated trajectories. The loss and free-energy
+//! figures are also drawn by [`crate::from_csv`].
 
 use std::path::Path;
 
@@ -55,6 +56,27 @@ pub fn write_all(
             )?,
         }
     }
+    loss_figure(
+        &out.join("loss.png"),
+        history,
+        "Minibatch loss (mean |residual| per component)",
+    )?;
+    let simulations: Vec<&Simulation> = simulations.iter().collect();
+    free_energy_figure(
+        &out.join("free_energy.png"),
+        &simulations,
+        "Free energy along simulated trajectories (E* = largest E reached)",
+    )?;
+    Ok(())
+}
+
+/// The metric-search, entropy-search and (when every iteration took one)
+/// joint-step cost per iteration, log scale.
+pub fn loss_figure(
+    path: &Path,
+    history: &History,
+    title: &str,
+) -> metriplectic_runtime::Result<()> {
     let metric: Vec<f64> = history
         .iterations
         .iter()
@@ -76,19 +98,29 @@ pub fn write_all(
         series.push(("joint step", &joint));
     }
     loss_curves(
-        out.join("loss.png"),
+        path,
         &series,
         &Labels {
-            title: "Minibatch loss (mean |residual| per component)",
+            title,
             x: "iteration",
             y: "loss",
             ..Labels::default()
         },
-    )?;
-    // S, and so E, is identified up to an additive constant (the constant
-    // monomial has zero gradient). Anchor E at the largest value any
-    // trajectory reaches: for an exact model that is E = 0 on the zero set,
-    // so the curve is the paper's −E.
+    )
+}
+
+/// −(E − E*) along simulated trajectories, log scale, E* the largest E any
+/// of them reaches.
+///
+/// S, and so E, is identified up to an additive constant (the constant
+/// monomial has zero gradient). Anchoring E at the largest value reached
+/// makes the curve the paper's −E for an exact model, whose E is 0 on the
+/// zero set.
+pub fn free_energy_figure(
+    path: &Path,
+    simulations: &[&Simulation],
+    title: &str,
+) -> metriplectic_runtime::Result<()> {
     let top = simulations
         .iter()
         .flat_map(|s| s.free_energy.iter().copied())
@@ -101,14 +133,13 @@ pub fn write_all(
         })
         .collect();
     free_energy_curves(
-        out.join("free_energy.png"),
+        path,
         &curves,
         &Labels {
-            title: "Free energy along simulated trajectories (E* = largest E reached)",
+            title,
             x: "t",
             y: "−(E − E*)",
             ..Labels::default()
         },
-    )?;
-    Ok(())
+    )
 }

@@ -231,9 +231,9 @@ pub enum ReproductionError {
     },
 }
 
-/// Set by the Ctrl-C handler [`run`] installs; the identifier's observer
-/// checks it after every iteration.
-static STOP_REQUESTED: AtomicBool = AtomicBool::new(false);
+/// Set by the Ctrl-C handler [`run`] (and `from_csv::run`) installs; the
+/// identifier's observer checks it after every iteration.
+pub(crate) static STOP_REQUESTED: AtomicBool = AtomicBool::new(false);
 
 /// Asks a running [`run`] to stop after its current iteration, as Ctrl-C does.
 pub fn request_stop() {
@@ -243,7 +243,7 @@ pub fn request_stop() {
 /// Installs the Ctrl-C handler once per process; a failure to install it
 /// (e.g. another handler exists) only costs the clean stop, so it is reported
 /// and the run goes on.
-fn install_ctrlc_handler(quiet: bool) {
+pub(crate) fn install_ctrlc_handler(quiet: bool) {
     static INSTALLED: OnceLock<()> = OnceLock::new();
     INSTALLED.get_or_init(|| {
         if let Err(err) = ctrlc::set_handler(request_stop) {
@@ -339,7 +339,7 @@ pub fn run_until<S: MetriplecticSystem>(
         }),
         ..IdentifyConfig::default()
     };
-    let progress = progress_bar(options, iterations);
+    let progress = progress_bar(options.quiet, iterations as u64);
     let observer = |record: &IterationRecord, _: &Model<S>| {
         progress.set_position(record.iteration as u64);
         progress.set_message(format!(
@@ -593,9 +593,11 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), ReproductionEr
     fs::write(path, text + "\n").map_err(io_error(path))
 }
 
-fn progress_bar(options: &Options, iterations: usize) -> ProgressBar {
-    let bar = ProgressBar::new(iterations as u64);
-    if options.quiet || !std::io::stderr().is_terminal() {
+/// A progress bar over `iterations` on stderr, hidden when `quiet` or when
+/// stderr is not a terminal (logs and CI get no control sequences).
+pub(crate) fn progress_bar(quiet: bool, iterations: u64) -> ProgressBar {
+    let bar = ProgressBar::new(iterations);
+    if quiet || !std::io::stderr().is_terminal() {
         bar.set_draw_target(ProgressDrawTarget::hidden());
     }
     if let Ok(style) =
