@@ -5,11 +5,16 @@
 //! `metriplectic!` macro). This package holds the paper's systems, declared
 //! once ([`systems`]), its experiments ([`experiments`]), and the pipeline the
 //! reproductions in `examples/` run ([`reproduction`], [`figures`]), so that
-//! the examples and the tests in `tests/` run the same code.
+//! the examples and the tests in `tests/` run the same code. [`from_csv`] is
+//! the pipeline of the `from_csv` example: identification from a user's
+//! trajectory CSV; [`synthetic_csv`] writes such CSVs from the reference
+//! models (the `synthesize_csv` example).
 
 pub mod experiments;
 pub mod figures;
+pub mod from_csv;
 pub mod reproduction;
+pub mod synthetic_csv;
 pub mod systems;
 
 pub use metriplectic_runtime;

@@ -18,6 +18,7 @@
 //! | `degenerate_systems` | systems at the edges of the DSL |
 //! | `hostile_input`, `solver_trouble` | bad data and failing solves |
 //! | `reproduction`, `reproduction_interrupt` | the paper reproductions end to end |
+//! | `from_csv` | identification from a trajectory CSV, the `from_csv` example's pipeline |
 //! | `plot` | figures |
 
 mod common;
@@ -29,6 +30,7 @@ mod degenerate_systems;
 mod derivatives;
 mod determinism;
 mod entropy_search;
+mod from_csv;
 mod generated_code;
 mod hostile_input;
 mod hygiene;
