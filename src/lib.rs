@@ -18,3 +18,9 @@ pub mod synthetic_csv;
 pub mod systems;
 
 pub use metriplectic_runtime;
+
+/// The README's Rust blocks, compiled (and run unless `no_run`) as doctests
+/// so that they cannot drift from the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
