@@ -609,8 +609,13 @@ impl Context<'_> {
         let (train, validation) =
             split_by_trajectory(&trajectories, options.validation_fraction, options.seed)?;
         let train_equations = Equations::build(&train, &method).map_err(|source| {
+            let hint = match method {
+                DataMethod::Weak(_) => "; shorter trajectories need --derivatives METHOD",
+                _ => "",
+            };
             FromCsvError::Option(format!(
-                "the training trajectories give no identification data with the {}: {source}",
+                "{}: the training trajectories give no identification data with the {}: {source}{hint}",
+                path.display(),
                 method.describe()
             ))
         })?;

@@ -287,6 +287,24 @@ fn bad_input_and_options_give_errors_that_say_what_is_wrong() {
         );
     }
 
+    let csv = scratch("short.csv");
+    write_csv::<Linear2d>(
+        &csv,
+        3,
+        SampleTimes::Uniform { interval: 0.1 },
+        0.9,
+        1.0,
+        0.0,
+    );
+    let err = run(&quiet_options(&csv, &out)).unwrap_err().to_string();
+    for part in [
+        "short.csv",
+        "no trajectory is that long (the longest has 10)",
+        "--derivatives",
+    ] {
+        assert!(err.contains(part), "`{part}` not in: {err}");
+    }
+
     let csv = scratch("states_only.csv");
     small_csv::<Linear2d>(&csv);
     let options = Options::try_parse_from([
