@@ -247,14 +247,16 @@ impl DataMethod {
     }
 }
 
+/// Not an exhaustive `match`: a method added to the runtime (a smoothing
+/// spline is on its way) is then described by its `Debug` form instead of
+/// breaking this crate's build.
 fn describe_derivatives(method: &DerivativeMethod) -> String {
-    match method {
-        DerivativeMethod::FiniteDifference { order } => {
-            format!("finite differences of order {order}")
-        }
-        DerivativeMethod::SavitzkyGolay { window, degree } => {
-            format!("Savitzky-Golay (window {window}, degree {degree})")
-        }
+    if let DerivativeMethod::FiniteDifference { order } = method {
+        format!("finite differences of order {order}")
+    } else if let DerivativeMethod::SavitzkyGolay { window, degree } = method {
+        format!("Savitzky-Golay (window {window}, degree {degree})")
+    } else {
+        format!("{method:?}")
     }
 }
 
