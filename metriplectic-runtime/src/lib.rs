@@ -51,7 +51,7 @@
 //! | --- | --- |
 //! | system | [`metriplectic!`], [`MetriplecticSystem`], [`SosTables`], [`JacobianTerm`] |
 //! | model | [`Model`] (evaluation, JSON files), [`WriteMode`] |
-//! | data | [`Dataset`], [`WeakDataset`] (the weak form: states only), [`IdentificationData`], [`Trajectory`], [`read_trajectories`], [`write_trajectories`] (CSV), [`DerivativeMethod`], [`estimate_derivatives`] |
+//! | data | [`Dataset`], [`WeakDataset`] (the weak form: states only), [`IdentificationData`], [`Trajectory`], [`read_trajectories`], [`write_trajectories`] (CSV), [`DerivativeMethod`], [`estimate_derivatives`], [`fit_smoothing_spline`] |
 //! | identify | [`identify`] and its variants, [`IdentifyConfig`], [`IterationScheme`], [`TrustRegion`], [`CheckpointConfig`], [`Identification`], [`History`], [`StopReason`], [`Cost`], [`model_cost`] |
 //! | searches | [`entropy_search`], [`metric_search`], [`joint_step`] with [`SearchOptions`] and [`SearchReport`] |
 //! | solve | [`L1Problem`], [`Regression`], [`Cone`], [`solve_l1`], [`L1Solution`], [`SolverSettings`], [`SolverBackend`], [`SolveStatus`] |
@@ -96,8 +96,9 @@ mod test_system;
 pub use data::split_by_trajectory;
 pub use data::{
     dataset_from_trajectories, differentiate, estimate_all, estimate_derivatives,
-    read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to, Dataset,
-    DerivativeMethod, IdentificationData, Trajectory, WeakDataset, WeakForm,
+    fit_smoothing_spline, read_trajectories, read_trajectories_from, write_trajectories,
+    write_trajectories_to, Dataset, DerivativeMethod, IdentificationData, SmoothingSplineFit,
+    Trajectory, WeakDataset, WeakForm,
 };
 #[cfg(feature = "plot")]
 pub use error::PlotError;

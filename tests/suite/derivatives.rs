@@ -1,13 +1,17 @@
 //! Derivative estimation on known smooth signals: error bounds, convergence
 //! order of the finite differences (ends included, uniform and non-uniform
 //! steps), and the noise suppression of the Savitzky–Golay differentiator
-//! against its predicted noise level.
+//! against its predicted noise level; the GCV smoothing spline against both
+//! on clean and noisy non-uniformly sampled data.
 
-use crate::common::Linear2d;
+use crate::common::{Linear2d, RigidBody};
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::Trajectory;
-use metriplectic_runtime::{differentiate, estimate_derivatives, DerivativeMethod};
-use metriplectic_runtime::{simulate, OutputTimes, SimulationOptions};
+use metriplectic_runtime::{differentiate, estimate_all, estimate_derivatives, DerivativeMethod};
+use metriplectic_runtime::{
+    simulate, synthesize, InitialStates, OutputTimes, SampleTimes, SimulationOptions,
+    SynthesisOptions,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -219,6 +223,373 @@ fn derivatives_that_would_be_nan_blame_the_time_spacing() {
     let message = err.to_string();
     assert!(
         message.contains("time spacing") && message.contains("samples 0..=2"),
+        "{message}"
+    );
+}
+
+/// `f(t)` = (states, exact derivatives) of a 2-state signal, sampled at `t`.
+fn analytic(t: &[f64], f: impl Fn(f64) -> ([f64; 2], [f64; 2])) -> Trajectory {
+    let (mut states, mut derivatives) = (Vec::new(), Vec::new());
+    for &t in t {
+        let (x, dx) = f(t);
+        states.extend(x);
+        derivatives.extend(dx);
+    }
+    let names = vec!["q".into(), "p".into()];
+    Trajectory::new(names, t.to_vec(), states, Some(derivatives)).unwrap()
+}
+
+/// The damped oscillation q = e^(−0.3t) cos 2t, p = q̇ (the solution of
+/// q̈ + 0.6 q̇ + 4.09 q = 0).
+fn damped_oscillation(t: &[f64]) -> Trajectory {
+    analytic(t, |t| {
+        let (decay, c, s) = ((-0.3 * t).exp(), (2.0 * t).cos(), (2.0 * t).sin());
+        let q = decay * c;
+        let p = decay * (-0.3 * c - 2.0 * s);
+        ([q, p], [p, -0.6 * p - 4.09 * q])
+    })
+}
+
+/// sin t and e^(−t).
+fn sin_exp(t: &[f64]) -> Trajectory {
+    analytic(t, |t| ([t.sin(), (-t).exp()], [t.cos(), -(-t).exp()]))
+}
+
+/// `n` times on [0, 10], each jittered by up to ±40 % of the mean spacing.
+fn jittered_times(n: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    use rand::Rng;
+    let h = 10.0 / (n - 1) as f64;
+    (0..n)
+        .map(|k| h * (k as f64 + rng.random_range(-0.4..0.4)))
+        .collect()
+}
+
+/// `n` times drawn independently with log t uniform on [log first, log
+/// last], sorted, as `SampleTimes::LogUniform` draws them: dense early,
+/// sparse late, and some pairs nearly coincide.
+fn log_uniform_times(n: usize, first: f64, last: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    use rand::Rng;
+    let span = (last / first).ln();
+    let mut t: Vec<f64> = (0..n)
+        .map(|_| first * (span * rng.random::<f64>()).exp())
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t
+}
+
+/// Trajectories of `model` from `initial`, sampled at `count` log-uniform
+/// times in [10⁻³, 5], exact derivatives attached.
+fn simulated<S: MetriplecticSystem>(
+    model: &Model<S>,
+    initial: InitialStates,
+    count: usize,
+    trajectories: usize,
+    seed: u64,
+) -> Vec<Trajectory> {
+    let options = SynthesisOptions {
+        trajectories,
+        held_out_trajectories: 0,
+        duration: 5.0,
+        seed,
+        ..SynthesisOptions::new(initial, SampleTimes::LogUniform { count, first: 1e-3 })
+    };
+    synthesize(model, &options).unwrap().trajectories
+}
+
+/// The states of `clean` plus Gaussian noise of σ = `level` × the rms of
+/// each state variable along the trajectory; no derivatives.
+fn with_noise(clean: &Trajectory, level: f64, rng: &mut ChaCha8Rng) -> Trajectory {
+    let n = clean.dim();
+    let mut states: Vec<f64> = (0..clean.len())
+        .flat_map(|i| clean.state(i).to_vec())
+        .collect();
+    for j in 0..n {
+        let column = clean.component(j);
+        let rms = (column.iter().map(|v| v * v).sum::<f64>() / column.len() as f64).sqrt();
+        let noise = Normal::new(0.0, level * rms).unwrap();
+        for v in states.iter_mut().skip(j).step_by(n) {
+            *v += noise.sample(rng);
+        }
+    }
+    Trajectory::new(clean.names().to_vec(), clean.times().to_vec(), states, None).unwrap()
+}
+
+/// Squared derivative error of `method` on `noisy` against the exact
+/// derivatives of `clean`, and the exact derivatives' squared norm, over the
+/// samples in `range`.
+fn squared_errors(
+    noisy: &Trajectory,
+    clean: &Trajectory,
+    method: &DerivativeMethod,
+    range: std::ops::Range<usize>,
+) -> (f64, f64) {
+    let n = clean.dim();
+    let estimated = estimate_derivatives(noisy, method).unwrap();
+    let (estimated, exact) = (
+        estimated.derivatives().unwrap(),
+        clean.derivatives().unwrap(),
+    );
+    let range = range.start * n..range.end * n;
+    let error = estimated[range.clone()]
+        .iter()
+        .zip(&exact[range.clone()])
+        .map(|(a, b)| (a - b).powi(2))
+        .sum();
+    (error, exact[range].iter().map(|v| v * v).sum())
+}
+
+/// Relative derivative error ‖d̂ − ẋ‖ / ‖ẋ‖ of each method, pooled over all
+/// samples of all trajectories, each trajectory with its own noise.
+fn relative_errors(
+    clean: &[Trajectory],
+    level: f64,
+    methods: &[(&str, DerivativeMethod)],
+    seed: u64,
+) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut sums = vec![(0.0, 0.0); methods.len()];
+    for trajectory in clean {
+        let noisy = with_noise(trajectory, level, &mut rng);
+        for (sum, (_, method)) in sums.iter_mut().zip(methods) {
+            let (error, norm) = squared_errors(&noisy, trajectory, method, 0..trajectory.len());
+            (sum.0, sum.1) = (sum.0 + error, sum.1 + norm);
+        }
+    }
+    sums.iter().map(|(e, n)| (e / n).sqrt()).collect()
+}
+
+fn print_errors(what: &str, level: f64, methods: &[(&str, DerivativeMethod)], errors: &[f64]) {
+    let cells: Vec<String> = methods
+        .iter()
+        .zip(errors)
+        .map(|((name, _), e)| format!("{name} {:.3} %", 100.0 * e))
+        .collect();
+    println!(
+        "{what}, noise {:.1} % of rms: relative derivative error {}",
+        100.0 * level,
+        cells.join(", ")
+    );
+}
+
+const FD2: DerivativeMethod = DerivativeMethod::FiniteDifference { order: 2 };
+const FD4: DerivativeMethod = DerivativeMethod::FiniteDifference { order: 4 };
+const SG_7_2: DerivativeMethod = DerivativeMethod::SavitzkyGolay {
+    window: 7,
+    degree: 2,
+};
+const SG_11_3: DerivativeMethod = DerivativeMethod::SavitzkyGolay {
+    window: 11,
+    degree: 3,
+};
+const SPLINE: DerivativeMethod = DerivativeMethod::smoothing_spline();
+
+/// sin t and e^(−t) at 50 random log-uniform times in [0.01, 2π] with noise
+/// of 0.1 % and 1 % of each variable's rms (20 trajectories each): the GCV
+/// spline, told nothing about the noise, is far more accurate than 4th-order
+/// finite differences (which the nearly coinciding early times wreck) and
+/// than a Savitzky–Golay window of 7 samples and degree 2. Measured:
+/// 0.1 %: FD4 20000 %, SG(7,2) 10 %, spline 2.8 %;
+/// 1 %: FD4 200000 %, SG(7,2) 69 %, spline 5.4 %.
+#[test]
+fn smoothing_spline_beats_local_methods_on_log_uniform_samples() {
+    let methods = [("FD4", FD4), ("SG(7,2)", SG_7_2), ("GCV spline", SPLINE)];
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let clean: Vec<Trajectory> = (0..20)
+        .map(|_| {
+            sin_exp(&log_uniform_times(
+                50,
+                0.01,
+                std::f64::consts::TAU,
+                &mut rng,
+            ))
+        })
+        .collect();
+    for (level, bound) in [(1e-3, 0.04), (1e-2, 0.1)] {
+        let errors = relative_errors(&clean, level, &methods, 11);
+        print_errors(
+            "sin t, e^-t, 50 log-uniform times",
+            level,
+            &methods,
+            &errors,
+        );
+        let [fd4, sg, spline] = errors[..] else {
+            unreachable!()
+        };
+        assert!(spline < fd4 / 20.0, "spline {spline} vs FD4 {fd4}");
+        assert!(spline < sg / 2.5, "spline {spline} vs SG(7,2) {sg}");
+        assert!(spline < bound, "spline {spline}");
+    }
+}
+
+/// The measurements behind the documentation: trajectories of the reference
+/// rigid body (synthesised, 50 log-uniform times in [10⁻³, 5]) and of the
+/// damped oscillator (50 log-uniform times in [0.01, 10]), 20 each, with
+/// noise of 0.1 % and 1 % of rms. The spline is the most accurate of the five
+/// methods on both (measured, 0.1 % / 1 %: rigid body 6.0 % / 19 %, next best
+/// SG(11,3) 51 % / 510 %; oscillator 2.6 % / 5.5 %, next best SG(7,2) 13 %
+/// and SG(11,3) 36 %). The 2-D reference system's fast initial transient
+/// (time constant about 0.01, some 10 samples) is printed too: there the
+/// spline's natural end condition smooths the transient away at the first
+/// samples; it still beats the finite differences by far, but SG(11,3) is 4
+/// times more accurate with 0.1 % noise (6.5 % against 26 %; with 1 %, 55 %
+/// against 45 %).
+#[test]
+fn derivative_methods_on_log_uniform_trajectories() {
+    let methods = [
+        ("FD2", FD2),
+        ("FD4", FD4),
+        ("SG(7,2)", SG_7_2),
+        ("SG(11,3)", SG_11_3),
+        ("GCV spline", SPLINE),
+    ];
+    let body = Model::<RigidBody>::reference().unwrap();
+    let ball = InitialStates::Ball {
+        center: vec![0.0; 3],
+        radius: 1.5,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let oscillations: Vec<Trajectory> = (0..20)
+        .map(|_| damped_oscillation(&log_uniform_times(50, 0.01, 10.0, &mut rng)))
+        .collect();
+    let cases = [
+        ("rigid body", simulated(&body, ball, 50, 20, 2), true),
+        ("damped oscillator", oscillations, true),
+        (
+            "2-D reference system",
+            simulated(
+                &Model::<Linear2d>::reference().unwrap(),
+                InitialStates::cube(2, 1.5),
+                50,
+                20,
+                1,
+            ),
+            false,
+        ),
+    ];
+    for (what, clean, spline_best) in &cases {
+        for level in [1e-3, 1e-2] {
+            let errors = relative_errors(clean, level, &methods, 7);
+            print_errors(what, level, &methods, &errors);
+            let spline = errors[4];
+            assert!(spline < errors[1] / 10.0, "{what}: spline {spline} vs FD4");
+            if *spline_best {
+                assert!(
+                    errors[..4].iter().all(|e| spline < *e / 2.0),
+                    "{what}: {errors:?}"
+                );
+            }
+        }
+    }
+}
+
+/// On 100 nearly uniform samples of the damped oscillation the spline is more
+/// accurate than 4th-order finite differences inside (all but 10 samples at
+/// each end: 2.3 times with 0.1 % noise, 3.8 times with 1 %), and within a
+/// factor 2.5 of the best Savitzky–Golay window and degree chosen knowing
+/// the true derivative; at the ends the natural spline's end condition
+/// (f'' = 0, where |q''| ≈ 4) costs it that lead, and with 0.1 % noise the
+/// ends make it 3 times worse than finite differences overall (1.7 times
+/// better with 1 %). Four noise realisations per level; clean data for
+/// reference.
+#[test]
+fn smoothing_spline_inside_and_at_the_ends() {
+    let n = 100;
+    let realisations = 4;
+    let inside = 10..n - 10;
+    for level in [0.0, 1e-3, 1e-2] {
+        let mut rng = ChaCha8Rng::seed_from_u64(2024);
+        // (inside error², inside norm², overall error², overall norm²) per method.
+        let mut sums = [[0.0; 4]; 3];
+        for _ in 0..realisations {
+            let clean = damped_oscillation(&jittered_times(n, &mut rng));
+            let noisy = with_noise(&clean, level, &mut rng);
+            // The oracle: every window and degree, judged by the true derivative.
+            let best_sg = (2..=6)
+                .flat_map(|degree| {
+                    (degree + 1..=61)
+                        .filter(|w| w % 2 == 1)
+                        .map(move |window| DerivativeMethod::SavitzkyGolay { window, degree })
+                })
+                .min_by(|a, b| {
+                    let e = |m| squared_errors(&noisy, &clean, m, 0..n).0;
+                    e(a).total_cmp(&e(b))
+                })
+                .unwrap();
+            for (sum, method) in sums.iter_mut().zip([FD4, best_sg, SPLINE]) {
+                let (e_in, n_in) = squared_errors(&noisy, &clean, &method, inside.clone());
+                let (e_all, n_all) = squared_errors(&noisy, &clean, &method, 0..n);
+                for (s, v) in sum.iter_mut().zip([e_in, n_in, e_all, n_all]) {
+                    *s += v;
+                }
+            }
+        }
+        let [fd4, sg, spline] = sums.map(|[a, b, c, d]| ((a / b).sqrt(), (c / d).sqrt()));
+        println!(
+            "noise {:.1} %, relative error inside / overall: FD4 {:.2e} / {:.2e}, best SG {:.2e} / {:.2e}, GCV spline {:.2e} / {:.2e}",
+            100.0 * level,
+            fd4.0,
+            fd4.1,
+            sg.0,
+            sg.1,
+            spline.0,
+            spline.1
+        );
+        if level == 0.0 {
+            // Clean data are for finite differences; the spline's ends cost it 100×.
+            assert!(spline.0 < 1e-3 && spline.1 < 4e-2, "{spline:?}");
+        } else {
+            assert!(spline.0 < fd4.0 / 2.0, "spline {spline:?} vs FD4 {fd4:?}");
+            assert!(spline.0 < 3.0 * sg.0, "spline {spline:?} vs best SG {sg:?}");
+        }
+        if level == 1e-2 {
+            assert!(spline.1 < fd4.1, "spline {spline:?} vs FD4 {fd4:?}");
+        }
+    }
+}
+
+/// Same input, same output, bit for bit; and the per-series entry point
+/// agrees with the per-trajectory one.
+#[test]
+fn smoothing_spline_is_deterministic() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let clean = damped_oscillation(&jittered_times(120, &mut rng));
+    let traj = with_noise(&clean, 1e-2, &mut rng);
+    let first = estimate_derivatives(&traj, &SPLINE).unwrap();
+    let second = estimate_derivatives(&traj, &SPLINE).unwrap();
+    assert_eq!(first.derivatives(), second.derivatives());
+    let q = differentiate(traj.times(), &traj.component(0), &SPLINE).unwrap();
+    let from_trajectory: Vec<f64> = first
+        .derivatives()
+        .unwrap()
+        .iter()
+        .step_by(2)
+        .copied()
+        .collect();
+    assert_eq!(q, from_trajectory);
+}
+
+/// Too few samples for a spline: the error names the trajectory and its length.
+#[test]
+fn smoothing_spline_names_a_trajectory_that_is_too_short() {
+    let long = Trajectory::new(
+        vec!["x".into()],
+        (0..10).map(f64::from).collect(),
+        (0..10).map(|k| f64::from(k * k)).collect(),
+        None,
+    )
+    .unwrap();
+    let short = Trajectory::new(
+        vec!["x".into()],
+        vec![0.0, 1.0, 2.0],
+        vec![0.0, 1.0, 4.0],
+        None,
+    )
+    .unwrap()
+    .with_id("run7");
+    let err = estimate_all(&[long, short], &SPLINE).unwrap_err();
+    let message = err.to_string();
+    assert!(
+        message.contains("trajectory 1 (id \"run7\")") && message.contains("has 3"),
         "{message}"
     );
 }

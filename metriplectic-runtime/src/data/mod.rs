@@ -13,7 +13,10 @@ pub use csv::{
     read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
 };
 pub use dataset::Dataset;
-pub use derivative::{differentiate, estimate_all, estimate_derivatives, DerivativeMethod};
+pub use derivative::{
+    differentiate, estimate_all, estimate_derivatives, fit_smoothing_spline, DerivativeMethod,
+    SmoothingSplineFit,
+};
 pub(crate) use equations::check_dataset;
 pub use equations::IdentificationData;
 pub use trajectory::{dataset_from_trajectories, split_by_trajectory, Trajectory};
