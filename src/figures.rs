@@ -65,7 +65,7 @@ pub fn write_all(
     free_energy_figure(
         &out.join("free_energy.png"),
         &simulations,
-        "Free energy along simulated trajectories (E* = largest E reached)",
+        "Free energy along simulated trajectories",
     )?;
     Ok(())
 }
@@ -109,28 +109,22 @@ pub fn loss_figure(
     )
 }
 
-/// −(E − E*) along simulated trajectories, log scale, E* the largest E any
-/// of them reaches.
+/// E_lim − E(t) along each simulated trajectory, log scale, E_lim that
+/// trajectory's own limit of E (see `free_energy_curves`).
 ///
 /// S, and so E, is identified up to an additive constant (the constant
-/// monomial has zero gradient). Anchoring E at the largest value reached
-/// makes the curve the paper's −E for an exact model, whose E is 0 on the
-/// zero set.
+/// monomial has zero gradient), which the difference cancels; trajectories
+/// settling at different levels (e.g. on different Casimir levels) are each
+/// measured from their own. For an exact model of the paper's systems,
+/// E_lim = 0 on the zero set and the curve is the paper's −E.
 pub fn free_energy_figure(
     path: &Path,
     simulations: &[&Simulation],
     title: &str,
 ) -> metriplectic_runtime::Result<()> {
-    let top = simulations
+    let curves: Vec<(&[f64], &[f64])> = simulations
         .iter()
-        .flat_map(|s| s.free_energy.iter().copied())
-        .fold(f64::NEG_INFINITY, f64::max);
-    let curves: Vec<(&[f64], Vec<f64>)> = simulations
-        .iter()
-        .map(|s| {
-            let shifted = s.free_energy.iter().map(|e| e - top).collect();
-            (s.trajectory.times(), shifted)
-        })
+        .map(|s| (s.trajectory.times(), &s.free_energy[..]))
         .collect();
     free_energy_curves(
         path,
@@ -138,7 +132,7 @@ pub fn free_energy_figure(
         &Labels {
             title,
             x: "t",
-            y: "−(E − E*)",
+            y: "E_lim − E",
             ..Labels::default()
         },
     )

@@ -908,7 +908,7 @@ impl Context<'_> {
                 crate::figures::free_energy_figure(
                     path,
                     &simulations,
-                    "Free energy along the model's validation trajectories (E* = largest E reached)",
+                    "Free energy along the model's validation trajectories",
                 )
             })?;
         }

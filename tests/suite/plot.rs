@@ -1,6 +1,8 @@
 //! Tests of the `plot` feature: every figure is written as a valid PNG and
 //! SVG from synthetic data shaped like the paper's, and bad paths and bad data
-//! are rejected with the right typed error before anything is written.
+//! are rejected with the right typed error before anything is written; axis
+//! labels are readable (at least 3 on a log axis, whole numbers on iteration
+//! axes).
 //!
 //! Set `METRIPLECTIC_PLOT_DIR=/some/dir` to keep the rendered figures there
 //! for inspection; by default they go to a scratch directory that is removed.
@@ -10,7 +12,8 @@ use std::path::{Path, PathBuf};
 
 use metriplectic_runtime::Error;
 use metriplectic_runtime::{
-    free_energy_curves, loss_curves, phase_portrait_2d, trajectories_3d, Labels, PlotError,
+    free_energy_curves, integer_axis_ticks, log_axis_ticks, loss_curves, phase_portrait_2d,
+    trajectories_3d, Labels, PlotError,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -252,23 +255,30 @@ fn loss_curves_write_png_and_svg_and_note_clamped_zeros() {
     assert!(!check_svg(&svg).contains("values ≤ 0"));
 }
 
+/// Free energies that do not end at 0: each curve levels off at its own
+/// limit (an identified E is only defined up to a constant), some above 0,
+/// some below.
 #[test]
 fn free_energy_curves_write_png_and_svg() {
     let out = OutDir::new("energy");
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let curves: Vec<(Vec<f64>, Vec<f64>)> = (0..200)
         .map(|_| {
-            let e0 = -rng.random_range(1e-3..2.0);
+            let limit = rng.random_range(-50.0..50.0);
+            let e0 = rng.random_range(1e-3..2.0);
             let rate = rng.random_range(1.0..3.0);
             let times: Vec<f64> = (0..=200).map(|i| 0.05 * i as f64).collect();
-            let energy = times.iter().map(|t| e0 * (-rate * t).exp()).collect();
+            let energy = times
+                .iter()
+                .map(|t| limit - e0 * (-rate * t).exp())
+                .collect();
             (times, energy)
         })
         .collect();
     let labels = Labels {
         title: "free energy along simulated trajectories",
         x: "time t",
-        y: "−E",
+        y: "E_lim − E",
         ..Labels::default()
     };
     let png = out.file("free_energy.png");
@@ -277,7 +287,34 @@ fn free_energy_curves_write_png_and_svg() {
     assert!(colours > 20, "only {colours} colours");
     let svg = out.file("free_energy.svg");
     free_energy_curves(&svg, &curves, &labels).unwrap();
-    assert!(check_svg(&svg).contains("−E"));
+    let text = check_svg(&svg);
+    assert!(text.contains("E_lim − E"));
+    assert!(
+        text.contains("E_lim = the limit of E along it"),
+        "convention note missing"
+    );
+}
+
+/// The figure shows E_lim − E: a constant added to a curve (the freedom an
+/// identified free energy has) changes nothing, whichever sign it has.
+#[test]
+fn free_energy_curves_ignore_the_constant_in_e() {
+    let out = OutDir::new("energy_constant");
+    let labels = Labels::default();
+    // Dyadic values: E − E_lim is exact, so the figures must be identical.
+    let curve = |offset: f64| -> (Vec<f64>, Vec<f64>) {
+        let times: Vec<f64> = (0..20).map(f64::from).collect();
+        let energy = (0..20).map(|i| offset - 0.5f64.powi(i)).collect();
+        (times, energy)
+    };
+    let mut texts = Vec::new();
+    for (name, offset) in [("zero", 0.0), ("above", 1024.0), ("below", -4096.0)] {
+        let path = out.file(&format!("energy_{name}.svg"));
+        free_energy_curves(&path, &[curve(offset), curve(offset / 2.0)], &labels).unwrap();
+        texts.push(check_svg(&path));
+    }
+    assert_eq!(texts[0], texts[1]);
+    assert_eq!(texts[0], texts[2]);
 }
 
 fn plot_error(result: metriplectic_runtime::Result<()>) -> PlotError {
@@ -446,10 +483,11 @@ fn bad_curves_are_rejected_with_their_name() {
         }
         other => panic!("{other}"),
     }
-    // E > 0 everywhere means −E is never positive: nothing to show on a log axis.
-    let above_max = [(vec![0.0, 1.0], vec![1.0, 0.5])];
+    // E constant along every curve: E_lim − E is never positive, nothing
+    // to show on a log axis.
+    let flat = [(vec![0.0, 1.0], vec![1.0, 1.0]), (vec![0.0], vec![-3.0])];
     assert!(matches!(
-        plot_error(free_energy_curves(&path, &above_max, &labels)),
+        plot_error(free_energy_curves(&path, &flat, &labels)),
         PlotError::NoPositiveValues { .. }
     ));
     assert!(!path.exists(), "a rejected figure must not leave a file");
@@ -489,8 +527,14 @@ fn degenerate_but_valid_data_still_renders() {
     let path = out.file("one_iteration.png");
     loss_curves(&path, &[("cost", &[3e-7][..])], &labels).unwrap();
     check_png(&path);
+    // A one-sample free-energy curve (nothing to show on its own) beside a
+    // decaying one, both far from t = 0.
     let path = out.file("one_time.svg");
-    free_energy_curves(&path, &[(vec![1e9], vec![-2.0])], &labels).unwrap();
+    let curves = [
+        (vec![1e9], vec![-2.0]),
+        (vec![1e9, 1e9 + 1.0], vec![-2.0, 5.0]),
+    ];
+    free_energy_curves(&path, &curves, &labels).unwrap();
     check_svg(&path);
 }
 
@@ -515,4 +559,112 @@ fn coordinates_too_large_to_lay_out_are_rejected() {
         PlotError::InvalidArgument { .. }
     ));
     assert!(!path.exists());
+}
+
+/// The text of every `<text>` element of an SVG, in order.
+fn svg_texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|chunk| {
+            let start = chunk.find('>')? + 1;
+            let end = chunk.find("</text>")?;
+            Some(chunk[start..end].trim().to_owned())
+        })
+        .collect()
+}
+
+/// A log axis within one decade still gets at least 3 labels (plotters' own
+/// ticks gave one), all inside the range, increasing.
+#[test]
+fn log_axis_ticks_label_narrow_ranges() {
+    for (low, high) in [
+        (1e-3, 1e-2),
+        (2e-3, 8e-3),
+        (0.3, 0.9),
+        (1.0, 10.0),
+        (0.81, 0.89),
+        (7e-9, 9e-9),
+        (1e-14, 1.0),
+        (3e4, 2e7),
+    ] {
+        let ticks = log_axis_ticks(low, high).unwrap();
+        let labels: Vec<&str> = ticks.iter().map(|t| t.label.as_str()).collect();
+        assert!(
+            (3..=10).contains(&ticks.len()),
+            "[{low:e}, {high:e}]: {labels:?}"
+        );
+        assert!(
+            ticks
+                .iter()
+                .all(|t| t.value >= low * (1.0 - 1e-9) && t.value <= high * (1.0 + 1e-9)),
+            "[{low:e}, {high:e}]: {ticks:?}"
+        );
+        assert!(ticks.windows(2).all(|w| w[0].value < w[1].value));
+        assert!(labels.iter().all(|l| !l.is_empty()));
+    }
+    assert!(matches!(
+        log_axis_ticks(0.0, 1.0),
+        Err(Error::Plot(PlotError::InvalidArgument { .. }))
+    ));
+
+    // In a figure: costs between 0.2 and 0.9 label 10⁻¹, 2×10⁻¹, 5×10⁻¹, 10⁰.
+    let out = OutDir::new("ticks_log");
+    let path = out.file("one_decade.svg");
+    let costs = [0.9, 0.7, 0.5, 0.35, 0.3, 0.2];
+    loss_curves(&path, &[("cost", &costs[..])], &Labels::default()).unwrap();
+    let texts = svg_texts(&check_svg(&path));
+    for label in ["10⁻¹", "2×10⁻¹", "5×10⁻¹", "10⁰"] {
+        assert!(
+            texts.iter().any(|t| t == label),
+            "{label} missing: {texts:?}"
+        );
+    }
+}
+
+/// Iteration axes are labelled at whole numbers only, however few or many
+/// iterations there are.
+#[test]
+fn integer_axis_ticks_have_no_fractions() {
+    for (low, high) in [
+        (0.5, 1.5),
+        (1.0, 2.0),
+        (1.0, 3.0),
+        (0.5, 4.5),
+        (1.0, 7.0),
+        (1.0, 12.0),
+        (1.0, 37.0),
+        (1.0, 700.0),
+        (3.0, 123_456.0),
+    ] {
+        let ticks = integer_axis_ticks(low, high).unwrap();
+        assert!(
+            !ticks.is_empty() && ticks.len() <= 10,
+            "[{low}, {high}]: {ticks:?}"
+        );
+        for tick in &ticks {
+            assert_eq!(tick.value.fract(), 0.0, "[{low}, {high}]: {ticks:?}");
+            assert!(tick.value >= low && tick.value <= high);
+            assert_eq!(tick.label.parse::<f64>().unwrap(), tick.value);
+        }
+    }
+    assert_eq!(integer_axis_ticks(1.0, 3.0).unwrap().len(), 3);
+
+    // In a figure: 3 iterations are labelled 1, 2, 3 and nothing between.
+    let out = OutDir::new("ticks_int");
+    let path = out.file("three_iterations.svg");
+    let costs = [1.0, 0.1, 0.01];
+    loss_curves(&path, &[("cost", &costs[..])], &Labels::default()).unwrap();
+    let texts = svg_texts(&check_svg(&path));
+    for label in ["1", "2", "3"] {
+        assert!(
+            texts.iter().any(|t| t == label),
+            "{label} missing: {texts:?}"
+        );
+    }
+    assert!(
+        !texts
+            .iter()
+            .any(|t| t.contains('.') && t.parse::<f64>().is_ok()),
+        "fractional tick: {texts:?}"
+    );
 }

@@ -7,7 +7,7 @@
 //! | [`phase_portrait_2d`] | Fig. 1 | planar trajectories, their start points (red dots) and a reference curve such as the zero set of E |
 //! | [`trajectories_3d`] | Fig. 3 | spatial trajectories, their start points and a wireframe sphere such as the zero set of E |
 //! | [`loss_curves`] | Figs. 2, 4 | one or more cost histories per iteration, log scale |
-//! | [`free_energy_curves`] | — | −E(t) along simulated trajectories, log scale |
+//! | [`free_energy_curves`] | — | E_lim − E(t) along simulated trajectories, each relative to its own limit, log scale |
 //!
 //! Every function takes plain data (slices of numbers), so it works with any
 //! simulation or identifier output, and writes one file whose format is chosen
@@ -21,9 +21,14 @@
 //! or series and the index, never a panic and never a silently wrong figure.
 //!
 //! Log-scale figures cannot show values ≤ 0. Such values (a cost that reached
-//! exactly 0, a free energy above its maximum 0) are drawn at a floor one
-//! decade below the smallest positive value in the figure, and the figure
-//! says so in a note under the title.
+//! exactly 0, the free energy at its limit) are drawn at a floor one decade
+//! below the smallest positive value in the figure, and the figure says so
+//! in a note under the plot.
+//!
+//! Axis labels are placed by [`log_axis_ticks`] (at least 3 labels on a log
+//! axis, even within one decade), [`integer_axis_ticks`] (iteration axes:
+//! whole numbers only) and round numbers elsewhere; the first two are public
+//! so that other figures can label their axes the same way.
 //!
 //! ```no_run
 //! use metriplectic_runtime::{loss_curves, phase_portrait_2d, Labels};
@@ -67,10 +72,12 @@ mod phase;
 mod render;
 mod sphere;
 mod style;
+mod ticks;
 
 pub use curves::{free_energy_curves, loss_curves};
 pub use phase::phase_portrait_2d;
 pub use sphere::trajectories_3d;
+pub use ticks::{integer_axis_ticks, log_axis_ticks, AxisTick};
 
 pub use crate::error::PlotError;
 

@@ -68,33 +68,6 @@ pub(crate) fn numbers(span: f64) -> impl Fn(&f64) -> String {
     }
 }
 
-/// A log-axis tick label: `10⁻³` for powers of ten, `3e-4` otherwise.
-pub(crate) fn power_of_ten(v: &f64) -> String {
-    // `+ 0.0` turns −0 (from values just below 1) into 0.
-    let exponent = v.log10().round() + 0.0;
-    if (v / 10f64.powf(exponent) - 1.0).abs() > 1e-9 {
-        return format!("{v:.0e}");
-    }
-    let digits: String = format!("{exponent:.0}")
-        .chars()
-        .map(|c| match c {
-            '-' => '⁻',
-            '0' => '⁰',
-            '1' => '¹',
-            '2' => '²',
-            '3' => '³',
-            '4' => '⁴',
-            '5' => '⁵',
-            '6' => '⁶',
-            '7' => '⁷',
-            '8' => '⁸',
-            '9' => '⁹',
-            other => other,
-        })
-        .collect();
-    format!("10{digits}")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,10 +84,5 @@ mod tests {
         let fine = numbers(1e-3);
         assert_eq!(fine(&1e6), "1000000");
         assert_eq!(fine(&(1e6 + 5e-5)), "1000000.00005");
-        assert_eq!(power_of_ten(&1.0), "10⁰");
-        assert_eq!(power_of_ten(&(1.0 - 1e-15)), "10⁰");
-        assert_eq!(power_of_ten(&1e-14), "10⁻¹⁴");
-        assert_eq!(power_of_ten(&100.0), "10²");
-        assert_eq!(power_of_ten(&3e-4), "3e-4");
     }
 }
