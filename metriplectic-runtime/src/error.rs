@@ -465,6 +465,18 @@ pub enum PlotError {
         /// Components the point has.
         found: usize,
     },
+    /// A state of a time-series figure has the wrong number of components.
+    #[error("{what}, sample {sample}: {found} components, but {expected} state names were given")]
+    StateDimension {
+        /// Which trajectory (e.g. "model trajectory 2").
+        what: String,
+        /// Index of the sample within the trajectory.
+        sample: usize,
+        /// Components expected: the number of state names.
+        expected: usize,
+        /// Components the state has.
+        found: usize,
+    },
     /// A value is NaN or infinite.
     #[error("{what}: non-finite value {value} at index {index}")]
     NonFinite {

@@ -56,7 +56,7 @@
 //! | searches | [`entropy_search`], [`metric_search`], [`joint_step`] with [`SearchOptions`] and [`SearchReport`] |
 //! | solve | [`L1Problem`], [`Regression`], [`Cone`], [`solve_l1`], [`L1Solution`], [`SolverSettings`], [`SolverBackend`], [`SolveStatus`] |
 //! | simulate | [`simulate`], [`integrate`], [`synthesize`], [`free_energy_diagnostics`] and their options |
-//! | plot (feature `plot`) | `phase_portrait_2d`, `trajectories_3d`, `loss_curves`, `free_energy_curves`, `log_axis_ticks`, `integer_axis_ticks` |
+//! | plot (feature `plot`) | `phase_portrait_2d`, `trajectories_3d`, `loss_curves`, `free_energy_curves`, `trajectory_overlay`, `log_axis_ticks`, `integer_axis_ticks` |
 //! | errors | [`Error`], [`Result`] and the per-layer error enums |
 //!
 //! # Cargo features
@@ -118,7 +118,7 @@ pub use model::{Model, Score};
 #[cfg_attr(docsrs, doc(cfg(feature = "plot")))]
 pub use plot::{
     free_energy_curves, integer_axis_ticks, log_axis_ticks, loss_curves, phase_portrait_2d,
-    trajectories_3d, AxisTick, Labels,
+    trajectories_3d, trajectory_overlay, AxisTick, Labels,
 };
 pub use simulate::{
     free_energy_diagnostics, integrate, simulate, simulate_many, synthesize, EnergyCheck,

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use metriplectic_runtime::Error;
 use metriplectic_runtime::{
     free_energy_curves, integer_axis_ticks, log_axis_ticks, loss_curves, phase_portrait_2d,
-    trajectories_3d, Labels, PlotError,
+    trajectories_3d, trajectory_overlay, Labels, PlotError,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -667,4 +667,224 @@ fn integer_axis_ticks_have_no_fractions() {
             .any(|t| t.contains('.') && t.parse::<f64>().is_ok()),
         "fractional tick: {texts:?}"
     );
+}
+
+/// Trajectories as `trajectory_overlay` takes them: (times, states).
+type Series = Vec<(Vec<f64>, Vec<Vec<f64>>)>;
+
+/// Three state variables, four trajectories: noisy samples against smooth
+/// model curves.
+fn overlay_data() -> (Series, Series) {
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let state = |k: usize, t: f64| {
+        let phase = k as f64;
+        vec![
+            (t + phase).cos() * (-0.2 * t).exp(),
+            (t + phase).sin() * (-0.2 * t).exp(),
+            1.0 + 0.1 * k as f64 - (-t).exp(),
+        ]
+    };
+    let data = (0..4)
+        .map(|k| {
+            let times: Vec<f64> = (0..40).map(|i| 0.25 * i as f64).collect();
+            let states = times
+                .iter()
+                .map(|&t| {
+                    state(k, t)
+                        .into_iter()
+                        .map(|x| x + rng.random_range(-0.03..0.03))
+                        .collect()
+                })
+                .collect();
+            (times, states)
+        })
+        .collect();
+    let model = (0..4)
+        .map(|k| {
+            let times: Vec<f64> = (0..400).map(|i| 0.025 * i as f64).collect();
+            let states = times.iter().map(|&t| state(k, t)).collect();
+            (times, states)
+        })
+        .collect();
+    (data, model)
+}
+
+#[test]
+fn trajectory_overlay_writes_png_and_svg() {
+    let out = OutDir::new("overlay");
+    let (data, model) = overlay_data();
+    let names = ["q", "p", "s"];
+    let labels = Labels {
+        title: "held-out trajectories: data and model",
+        x: "t",
+        ..Labels::default()
+    };
+    let png = out.file("overlay.png");
+    trajectory_overlay(&png, &data, &model, &names, &labels).unwrap();
+    let (w, h, colours) = check_png(&png);
+    assert!(w >= 800 && h >= 3 * 200, "{w}x{h}");
+    assert!(colours > 50, "only {colours} colours");
+
+    let svg = out.file("overlay.svg");
+    trajectory_overlay(&svg, &data, &model, &names, &labels).unwrap();
+    let text = check_svg(&svg);
+    let texts = svg_texts(&text);
+    for label in ["q", "p", "s", "t", "data", "model", "trajectory:", "0", "3"] {
+        assert!(
+            texts.iter().any(|t| t == label),
+            "{label} missing: {texts:?}"
+        );
+    }
+    // One marker per data sample and state variable, plus the legend's.
+    assert!(text.matches("<circle").count() >= 4 * 40 * 3);
+
+    // Data alone, and fixed-size arrays as states.
+    let svg = out.file("overlay_data_only.svg");
+    let arrays: Vec<(Vec<f64>, Vec<[f64; 2]>)> = vec![(
+        vec![0.0, 1.0, 2.0],
+        vec![[0.0, 1.0], [0.5, 0.8], [0.7, 0.7]],
+    )];
+    trajectory_overlay(&svg, &arrays, &[], &["x", "y"], &Labels::default()).unwrap();
+    assert!(!svg_texts(&check_svg(&svg)).iter().any(|t| t == "model"));
+}
+
+/// The legend has a band of its own above the panels: every data marker
+/// lies below it.
+#[test]
+fn trajectory_overlay_legend_does_not_cover_the_data() {
+    let out = OutDir::new("overlay_legend");
+    let (data, model) = overlay_data();
+    let svg = out.file("overlay.svg");
+    trajectory_overlay(&svg, &data, &model, &["q", "p", "s"], &Labels::default()).unwrap();
+    let text = check_svg(&svg);
+    let attribute = |element: &str, name: &str| -> Option<f64> {
+        let start = element.find(&format!(" {name}=\""))? + name.len() + 3;
+        let end = start + element[start..].find('"')?;
+        element[start..end].parse().ok()
+    };
+    let legend_y = text
+        .split("<text")
+        .skip(1)
+        .find(|chunk| {
+            let content = chunk.split_once('>').map(|(_, rest)| rest);
+            content.is_some_and(|rest| rest.trim_start().starts_with("data\n"))
+        })
+        .and_then(|chunk| attribute(chunk, "y"))
+        .expect("legend entry `data`");
+    let marker_y: Vec<f64> = text
+        .split("<circle")
+        .skip(1)
+        .filter_map(|chunk| attribute(chunk, "cy"))
+        .collect();
+    // The legend's own marker sits on the legend's line; all others below.
+    let below = marker_y.iter().filter(|&&y| y > legend_y + 20.0).count();
+    assert_eq!(
+        below + 1,
+        marker_y.len(),
+        "legend at {legend_y}: {marker_y:?}"
+    );
+}
+
+#[test]
+fn trajectory_overlay_rejects_mismatched_states() {
+    let out = OutDir::new("overlay_bad");
+    let path = out.file("bad.png");
+    let labels = Labels::default();
+    let (data, model) = overlay_data();
+    let names = ["q", "p", "s"];
+
+    let mut short = data.clone();
+    short[1].1[4].pop();
+    match plot_error(trajectory_overlay(&path, &short, &model, &names, &labels)) {
+        PlotError::StateDimension {
+            what,
+            sample: 4,
+            expected: 3,
+            found: 2,
+        } => assert_eq!(what, "data trajectory 1"),
+        other => panic!("{other}"),
+    }
+    let mut long = model.clone();
+    long[2].1[0].push(0.0);
+    let err = plot_error(trajectory_overlay(&path, &data, &long, &names, &labels));
+    assert!(
+        matches!(
+            &err,
+            PlotError::StateDimension { what, sample: 0, expected: 3, found: 4 }
+                if what == "model trajectory 2"
+        ),
+        "{err}"
+    );
+    assert!(err
+        .to_string()
+        .contains("model trajectory 2, sample 0: 4 components"));
+    // Two names for three-component states.
+    assert!(matches!(
+        plot_error(trajectory_overlay(
+            &path,
+            &data,
+            &model,
+            &["q", "p"],
+            &labels
+        )),
+        PlotError::StateDimension {
+            expected: 2,
+            found: 3,
+            ..
+        }
+    ));
+
+    assert!(matches!(
+        plot_error(trajectory_overlay(
+            &path,
+            &data,
+            &model[..3],
+            &names,
+            &labels
+        )),
+        PlotError::InvalidArgument { .. }
+    ));
+    let mut nan = data.clone();
+    nan[0].1[7][2] = f64::NAN;
+    match plot_error(trajectory_overlay(&path, &nan, &model, &names, &labels)) {
+        PlotError::NonFinite { what, index: 7, .. } => {
+            assert_eq!(what, "data trajectory 0, state `s`")
+        }
+        other => panic!("{other}"),
+    }
+    let mut uneven = data.clone();
+    uneven[3].0.pop();
+    assert!(matches!(
+        plot_error(trajectory_overlay(&path, &uneven, &model, &names, &labels)),
+        PlotError::LengthMismatch {
+            left: 39,
+            right: 40,
+            ..
+        }
+    ));
+    let none: Series = Vec::new();
+    assert!(matches!(
+        plot_error(trajectory_overlay(&path, &none, &none, &names, &labels)),
+        PlotError::Empty { .. }
+    ));
+    assert!(matches!(
+        plot_error(trajectory_overlay(&path, &data, &model, &[], &labels)),
+        PlotError::Empty { .. }
+    ));
+    let many = ["x"; 13];
+    assert!(matches!(
+        plot_error(trajectory_overlay(&path, &data, &model, &many, &labels)),
+        PlotError::InvalidArgument { .. }
+    ));
+    assert!(matches!(
+        plot_error(trajectory_overlay(
+            out.file("bad.jpg"),
+            &data,
+            &model,
+            &names,
+            &labels
+        )),
+        PlotError::UnsupportedFormat { .. }
+    ));
+    assert!(!path.exists(), "a rejected figure must not leave a file");
 }

@@ -279,7 +279,9 @@ const HEIGHT: u32 = 850;
 const NOTE_BAND: u32 = 40;
 
 impl Figure for Curves<'_> {
-    const SIZE: (u32, u32) = (WIDTH, HEIGHT);
+    fn size(&self) -> (u32, u32) {
+        (WIDTH, HEIGHT)
+    }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), Failure> {
         // Notes get a band of their own, so they cannot run into the axis name.

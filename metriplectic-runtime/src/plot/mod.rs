@@ -1,6 +1,7 @@
 //! Publication figures of identified models (feature `plot`).
 //!
-//! Four figures, matching the paper's:
+//! Four figures matching the paper's, and one for checking a model against
+//! measurements:
 //!
 //! | function | paper | what it shows |
 //! | --- | --- | --- |
@@ -8,6 +9,7 @@
 //! | [`trajectories_3d`] | Fig. 3 | spatial trajectories, their start points and a wireframe sphere such as the zero set of E |
 //! | [`loss_curves`] | Figs. 2, 4 | one or more cost histories per iteration, log scale |
 //! | [`free_energy_curves`] | — | E_lim − E(t) along simulated trajectories, each relative to its own limit, log scale |
+//! | [`trajectory_overlay`] | — | measured states (markers) against a model's trajectories (lines) over time, one panel per state variable |
 //!
 //! Every function takes plain data (slices of numbers), so it works with any
 //! simulation or identifier output, and writes one file whose format is chosen
@@ -68,6 +70,7 @@
 mod curves;
 mod data;
 mod font;
+mod overlay;
 mod phase;
 mod render;
 mod sphere;
@@ -75,6 +78,7 @@ mod style;
 mod ticks;
 
 pub use curves::{free_energy_curves, loss_curves};
+pub use overlay::trajectory_overlay;
 pub use phase::phase_portrait_2d;
 pub use sphere::trajectories_3d;
 pub use ticks::{integer_axis_ticks, log_axis_ticks, AxisTick};

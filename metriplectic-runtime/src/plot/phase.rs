@@ -90,7 +90,9 @@ impl PhasePortrait<'_> {
 }
 
 impl Figure for PhasePortrait<'_> {
-    const SIZE: (u32, u32) = (WIDTH, HEIGHT);
+    fn size(&self) -> (u32, u32) {
+        (WIDTH, HEIGHT)
+    }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), Failure> {
         // The title is drawn first so the plotting area's size is known

@@ -13,7 +13,7 @@ use super::{font, PlotError};
 /// A figure that can draw itself onto any plotters backend.
 pub(crate) trait Figure {
     /// Width and height in pixels (PNG) or user units (SVG).
-    const SIZE: (u32, u32);
+    fn size(&self) -> (u32, u32);
 
     /// Draws the whole figure onto `root`, which is already filled white.
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), Failure>;
@@ -67,7 +67,7 @@ pub(crate) fn render<F: Figure>(path: &Path, figure: &F) -> Result<(), PlotError
         path: path.to_path_buf(),
         message: err.0,
     };
-    let (width, height) = F::SIZE;
+    let (width, height) = figure.size();
     match Format::of(path)? {
         Format::Png => {
             let mut rgb = vec![0u8; width as usize * height as usize * 3];
@@ -89,8 +89,8 @@ pub(crate) fn render<F: Figure>(path: &Path, figure: &F) -> Result<(), PlotError
     }
 }
 
-/// Draws the series legend in the upper-right corner, in the style every
-/// figure shares.
+/// Draws the series legend in the upper-right corner of the plotting area,
+/// in the style every figure shares.
 pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
 ) -> Result<(), Failure> {

@@ -115,7 +115,9 @@ impl Trajectories3d<'_> {
 }
 
 impl Figure for Trajectories3d<'_> {
-    const SIZE: (u32, u32) = (1100, 1100);
+    fn size(&self) -> (u32, u32) {
+        (1100, 1100)
+    }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), Failure> {
         let h = self.half_width();

@@ -38,6 +38,21 @@ pub(crate) const SERIES: [RGBColor; 6] = [
     RGBColor(227, 119, 194),
 ];
 
+/// One colour per trajectory where each has its own (matplotlib's "tab10",
+/// in order); they repeat after 10.
+pub(crate) const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
 /// Width of the legend's sample column and the length of a sample line.
 pub(crate) const LEGEND_AREA: u32 = 48;
 /// Length of a legend's sample line (shorter than [`LEGEND_AREA`] so it clears the text).
