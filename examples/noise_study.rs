@@ -192,6 +192,10 @@ fn study<S: MetriplecticSystem>(experiment: &Experiment, options: &Options) -> R
                 degree: 3,
             },
         ),
+        (
+            "cubic smoothing spline, λ by GCV",
+            DerivativeMethod::smoothing_spline(),
+        ),
     ] {
         if wanted(label) {
             rows.push(match Dataset::from_trajectories(&measured, Some(&method)) {
