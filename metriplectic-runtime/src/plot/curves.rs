@@ -89,13 +89,14 @@ pub fn loss_curves(
 /// Casimir levels) are each measured from their own.
 ///
 /// E_lim is estimated from the samples. While E still rises at the end (its
-/// last two increments positive, shrinking, and above rounding) and the last
-/// three samples are evenly spaced in time, the increments are extrapolated
-/// as a geometric series (Aitken's Δ²: exact for an exponential approach, so
-/// its tail stays a straight line on the log axis); otherwise E_lim is the
-/// largest sampled E, which a settled trajectory has reached to rounding.
-/// (With the largest sample instead of the extrapolation, a trajectory still
-/// settling would bend down to 0 at its last sample.) A note under the
+/// last two increments positive, above rounding, and slowing down: the
+/// later one's rate per unit time below the earlier one's), the exponential
+/// approach E_lim − c·e^(−rt) through the last three samples is
+/// extrapolated (for evenly spaced samples, Aitken's Δ²), so an
+/// exponential tail stays a straight line on the log axis; otherwise E_lim
+/// is the largest sampled E, which a settled trajectory has reached to
+/// rounding. (With the largest sample instead of the extrapolation, a
+/// trajectory still settling would bend down to 0 at its last sample.) A note under the
 /// figure states the convention; label the value axis accordingly (e.g.
 /// `y: "E_lim − E"`). Where E equals E_lim the difference is 0, drawn at a
 /// floor one decade below the smallest positive difference, marked by a
@@ -175,8 +176,8 @@ fn gaps_to_limit(times: &[f64], values: &[f64]) -> Vec<f64> {
     values.iter().map(|e| limit - e).collect()
 }
 
-/// The limit of E along one trajectory: the geometric extrapolation of its
-/// last three samples where that is meaningful, else its largest value.
+/// The limit of E along one trajectory: the exponential extrapolation of
+/// its last three samples where that is meaningful, else its largest value.
 fn estimated_limit(times: &[f64], values: &[f64]) -> f64 {
     let largest = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let n = values.len();
@@ -184,19 +185,39 @@ fn estimated_limit(times: &[f64], values: &[f64]) -> f64 {
         return largest;
     }
     let (t, e) = (&times[n - 3..], &values[n - 3..]);
-    let (h1, h2) = (t[1] - t[0], t[2] - t[1]);
+    let (a, b) = (t[1] - t[0], t[2] - t[1]);
     let (d1, d2) = (e[1] - e[0], e[2] - e[1]);
-    let even = h1 > 0.0 && (h2 - h1).abs() <= 1e-6 * h1;
     // Increments within ~1000 roundings of E are noise, not a trend.
-    let resolved = d2 > 1e3 * f64::EPSILON * e[2].abs().max(e[1].abs());
-    if even && resolved && d2 < d1 {
-        let ratio = d2 / d1;
-        let limit = e[2] + d2 * ratio / (1.0 - ratio);
-        if limit.is_finite() && limit >= largest {
-            return limit;
+    let resolved = d1 > 0.0 && d2 > 1e3 * f64::EPSILON * e[2].abs().max(e[1].abs());
+    // Slowing down: the later increment's rate below the earlier one's.
+    if !(resolved && a > 0.0 && b > 0.0 && d2 / b < d1 / a) {
+        return largest;
+    }
+    // E = L − c·e^(−rt) through the three samples: d2/d1 = R(r) with
+    // R(r) = (1 − e^(−rb)) / (e^(ra) − 1), which falls from b/a (r → 0) to
+    // 0 (r → ∞). Solve for r by bisection on log r, with ra ≤ 700.
+    let ratio = d2 / d1;
+    let falls = |r: f64| (-(-r * b).exp_m1()) / (r * a).exp_m1();
+    let (mut lo, mut hi) = ((1e-12 / a).ln(), (700.0 / a).ln());
+    if falls(hi.exp()) >= ratio {
+        return largest;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if falls(mid.exp()) > ratio {
+            lo = mid;
+        } else {
+            hi = mid;
         }
     }
-    largest
+    // The remaining gap at the last sample: c·e^(−r t₃) = d2·e^(−rb)/(1 − e^(−rb)).
+    let decay = (-hi.exp() * b).exp();
+    let limit = e[2] + d2 * decay / (1.0 - decay);
+    if limit.is_finite() && limit >= largest {
+        limit
+    } else {
+        largest
+    }
 }
 
 /// What the horizontal axis counts.
@@ -381,11 +402,20 @@ mod tests {
         // that reach it.
         let settled: Vec<f64> = times.iter().map(|t| 3.0 - (-8.0 * t).exp()).collect();
         assert_eq!(estimated_limit(&times, &settled), 3.0);
-        // Falling at the end, uneven last steps, too few samples: the largest value.
+        // Uneven (log-uniform) times: still the exact limit.
+        let uneven: Vec<f64> = (0..30).map(|i| 1e-2 * 1.25f64.powi(i)).collect();
+        let energy: Vec<f64> = uneven
+            .iter()
+            .map(|t| 4.0 - 3.0 * (-0.7 * t).exp())
+            .collect();
+        let limit = estimated_limit(&uneven, &energy);
+        assert!((limit - 4.0).abs() < 1e-9, "{limit}");
+        // Falling at the end, speeding up per unit time, too few samples:
+        // the largest value.
         let falling = [1.0, 2.0, 2.5, 2.4];
         assert_eq!(estimated_limit(&[0.0, 1.0, 2.0, 3.0], &falling), 2.5);
-        let uneven = [1.0, 2.0, 2.5, 2.75];
-        assert_eq!(estimated_limit(&[0.0, 1.0, 2.0, 4.0], &uneven), 2.75);
+        let faster = [1.0, 2.0, 2.5, 2.75];
+        assert_eq!(estimated_limit(&[0.0, 1.0, 2.0, 2.4], &faster), 2.75);
         assert_eq!(estimated_limit(&[0.0, 1.0], &[1.0, 2.0]), 2.0);
         // Growing increments (not converging yet): no extrapolation either.
         assert_eq!(estimated_limit(&[0.0, 1.0, 2.0], &[1.0, 2.0, 4.0]), 4.0);
