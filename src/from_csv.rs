@@ -83,8 +83,9 @@ pub struct Options {
     pub weak: bool,
     /// Identify from derivatives: exact (the CSV's derivative columns dq, dp, ...; the
     /// default when it has them), fd2, fd4 or fd6 (finite differences of that
-    /// order, for clean data), sg (Savitzky-Golay, window 7, degree 3) or
-    /// sg:W:D (window W, degree D). Without a value: sg.
+    /// order, for clean data), sg (Savitzky-Golay, window 7, degree 3),
+    /// sg:W:D (window W, degree D) or spline (cubic smoothing spline, its
+    /// smoothing chosen by cross-validation). Without a value: sg.
     #[arg(long, value_name = "METHOD", num_args = 0..=1, default_missing_value = "sg")]
     pub derivatives: Option<DerivativeChoice>,
     /// Fraction of the trajectories held out whole for validation (at least
@@ -197,6 +198,7 @@ impl FromStr for DerivativeChoice {
                 window: 7,
                 degree: 3,
             }),
+            "spline" => estimate(DerivativeMethod::smoothing_spline()),
             _ => {
                 let parts: Vec<&str> = text.split(':').collect();
                 match parts.as_slice() {
@@ -212,7 +214,7 @@ impl FromStr for DerivativeChoice {
                         })
                     }
                     _ => Err(format!(
-                        "`{text}` is not a derivative method; use exact, fd2, fd4, fd6, sg or sg:WINDOW:DEGREE"
+                        "`{text}` is not a derivative method; use exact, fd2, fd4, fd6, sg, sg:WINDOW:DEGREE or spline"
                     )),
                 }
             }
@@ -247,16 +249,21 @@ impl DataMethod {
     }
 }
 
-/// Not an exhaustive `match`: a method added to the runtime (a smoothing
-/// spline is on its way) is then described by its `Debug` form instead of
-/// breaking this crate's build.
+/// How the derivatives were estimated, in words for the summary.
 fn describe_derivatives(method: &DerivativeMethod) -> String {
-    if let DerivativeMethod::FiniteDifference { order } = method {
-        format!("finite differences of order {order}")
-    } else if let DerivativeMethod::SavitzkyGolay { window, degree } = method {
-        format!("Savitzky-Golay (window {window}, degree {degree})")
-    } else {
-        format!("{method:?}")
+    match method {
+        DerivativeMethod::FiniteDifference { order } => {
+            format!("finite differences of order {order}")
+        }
+        DerivativeMethod::SavitzkyGolay { window, degree } => {
+            format!("Savitzky-Golay (window {window}, degree {degree})")
+        }
+        DerivativeMethod::SmoothingSpline { lambda: None } => {
+            "cubic smoothing spline, smoothing by cross-validation".into()
+        }
+        DerivativeMethod::SmoothingSpline {
+            lambda: Some(lambda),
+        } => format!("cubic smoothing spline, smoothing {lambda:e}"),
     }
 }
 

@@ -337,6 +337,16 @@ fn bad_input_and_options_give_errors_that_say_what_is_wrong() {
         argv.extend(args.iter().copied());
         assert!(Options::try_parse_from(&argv).is_err(), "{args:?} accepted");
     }
+    let argv = [
+        "from_csv",
+        "--data",
+        "a.csv",
+        "--out",
+        "o",
+        "--derivatives",
+        "spline",
+    ];
+    assert!(Options::try_parse_from(argv).is_ok(), "spline refused");
     assert!(!out.exists(), "failed runs leave no output directory");
 }
 
