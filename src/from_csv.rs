@@ -44,8 +44,8 @@ use std::time::Instant;
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identify_with_observer, phase_portrait_2d, trajectories_3d, CsvError, Identification,
-    IntegratorOptions, IterationRecord, Labels, OutputTimes, Score, Simulation,
+    identify_with_observer, phase_portrait_2d, trajectories_3d, trajectory_overlay, CsvError,
+    Identification, IntegratorOptions, IterationRecord, Labels, OutputTimes, Score, Simulation,
 };
 use serde::{Deserialize, Serialize};
 
@@ -805,6 +805,7 @@ impl Context<'_> {
     }
 
     /// `validation_<k>.png` (or one per pair of state variables),
+    /// `validation_overlay.png` (the same trajectories over time),
     /// `model_trajectories_3d.png` for 3-D systems, `loss.png` and
     /// `free_energy.png`. A figure that cannot be drawn (degenerate data)
     /// is a warning: the model and numbers are still worth having.
@@ -838,11 +839,27 @@ impl Context<'_> {
             .simulations
             .iter()
             .take(self.options.plot_trajectories);
+        // Measured against simulated states over time, for the overlay.
+        type Series = (Vec<f64>, Vec<Vec<f64>>);
+        let series = |trajectory: &Trajectory| -> Series {
+            (
+                trajectory.times().to_vec(),
+                trajectory
+                    .states()
+                    .chunks_exact(S::DIM)
+                    .map(<[f64]>::to_vec)
+                    .collect(),
+            )
+        };
+        let mut overlay_data: Vec<Series> = Vec::new();
+        let mut overlay_model: Vec<Series> = Vec::new();
         for (number, (index, _)) in shown.enumerate() {
             let measured = &validation[*index];
             let Some(smooth) = smooth_simulation(&identification.model, measured) else {
                 continue;
             };
+            overlay_data.push(series(measured));
+            overlay_model.push(series(&smooth.trajectory));
             let model_points: Vec<&[f64]> =
                 smooth.trajectory.states().chunks_exact(S::DIM).collect();
             let title = format!(
@@ -876,6 +893,21 @@ impl Context<'_> {
                     )
                 })?;
             }
+        }
+        if !overlay_data.is_empty() {
+            attempt("validation_overlay.png".to_owned(), &|path| {
+                trajectory_overlay(
+                    path,
+                    &overlay_data,
+                    &overlay_model,
+                    names,
+                    &Labels {
+                        title: "Validation trajectories: measured (markers) and model (lines)",
+                        x: "t",
+                        ..Labels::default()
+                    },
+                )
+            })?;
         }
         if S::DIM == 3 && !checked.simulations.is_empty() {
             let trajectories: Vec<Vec<&[f64]>> = checked

@@ -129,6 +129,7 @@ fn noisy_duffing_states_identify_a_model_that_predicts_held_out_trajectories() {
     for figure in [
         "validation_1.png",
         "validation_4.png",
+        "validation_overlay.png",
         "loss.png",
         "free_energy.png",
     ] {
@@ -414,7 +415,11 @@ fn a_csv_with_derivatives_is_identified_from_them_unless_told_otherwise() {
     // 1.9e-9, as for the true model (the integrator's tolerance).
     let error = summary.validation_relative_error.unwrap();
     assert!(error < 1e-6, "validation relative error {error}");
-    for figure in ["validation_1_px_py.png", "model_trajectories_3d.png"] {
+    for figure in [
+        "validation_1_px_py.png",
+        "validation_overlay.png",
+        "model_trajectories_3d.png",
+    ] {
         assert!(out.join(figure).is_file(), "{figure} missing");
     }
 
