@@ -167,7 +167,10 @@ impl IdentifyConfig {
     /// The paper's Algorithm 2 exactly: alternating metric and entropy
     /// searches on minibatches of q = 2000, no joint step, no stopping rule
     /// but the tolerance and the cap of 100 iterations, and the last
-    /// accepted iterate returned (no validation, no polish).
+    /// accepted iterate returned (no validation, no polish). The start is
+    /// still the default fitted one unless `initial_entropy` is given: the
+    /// paper starts from its experiments' own initial entropy (the truth
+    /// plus noise), which the reproductions pass in.
     pub fn paper() -> Self {
         Self {
             batch_size: Some(2000),
