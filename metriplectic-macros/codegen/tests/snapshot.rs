@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use quote::quote;
 
-/// The 2-D paper system (DESIGN.md §3), as a user would write it.
+/// The paper's 2-D system (as in `src/systems.rs`), as a user would write it.
 fn linear_2d() -> proc_macro2::TokenStream {
     quote! {
         /// Canonical oscillator whose free energy has a figure-eight zero set.
