@@ -167,18 +167,24 @@ impl DerivativeMethod {
     }
 }
 
-/// Derivative estimates of one series `values` sampled at `times`
-/// (finite, strictly increasing).
-pub fn differentiate(times: &[f64], values: &[f64], method: &DerivativeMethod) -> Result<Vec<f64>> {
+/// Errors unless `values` (named `what`) has one finite value per time and
+/// the times increase strictly.
+fn check_series(what: &str, times: &[f64], values: &[f64]) -> Result<()> {
     if values.len() != times.len() {
         return Err(Error::DimensionMismatch {
-            what: "values to differentiate".to_owned(),
+            what: what.to_owned(),
             expected: times.len(),
             found: values.len(),
         });
     }
-    crate::error::check_finite("values to differentiate", values)?;
-    crate::error::check_strictly_increasing("times", times)?;
+    crate::error::check_finite(what, values)?;
+    crate::error::check_strictly_increasing("times", times)
+}
+
+/// Derivative estimates of one series `values` sampled at `times`
+/// (finite, strictly increasing).
+pub fn differentiate(times: &[f64], values: &[f64], method: &DerivativeMethod) -> Result<Vec<f64>> {
+    check_series("values to differentiate", times, values)?;
     method.validate(times.len())?;
     if let DerivativeMethod::SmoothingSpline { lambda } = *method {
         return Ok(spline::fit(times, values, lambda)?.derivatives);
@@ -459,15 +465,7 @@ pub fn fit_smoothing_spline(
     values: &[f64],
     lambda: Option<f64>,
 ) -> Result<SmoothingSplineFit> {
-    if values.len() != times.len() {
-        return Err(Error::DimensionMismatch {
-            what: "values to fit".to_owned(),
-            expected: times.len(),
-            found: values.len(),
-        });
-    }
-    crate::error::check_finite("values to fit", values)?;
-    crate::error::check_strictly_increasing("times", times)?;
+    check_series("values to fit", times, values)?;
     DerivativeMethod::SmoothingSpline { lambda }.validate(times.len())?;
     spline::fit(times, values, lambda)
 }
