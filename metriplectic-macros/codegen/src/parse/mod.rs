@@ -6,6 +6,7 @@
 //! build.
 
 mod bounds;
+mod certificate;
 mod expr;
 mod sections;
 mod syntax;
@@ -17,7 +18,8 @@ use crate::diagnostics::Diagnostics;
 #[cfg(test)]
 pub use expr::parse_expression;
 pub use syntax::{
-    BinaryOp, ConstDef, Degree, Expr, Matrix, Reference, SpanRange, StateDecl, SystemDef,
+    BinaryOp, ConstDef, Degree, Expr, Interval, Matrix, Mode, Reference, RegionDecl, RegionShape,
+    SpanRange, StateDecl, SystemDef, Vector,
 };
 
 /// Parses one invocation as far as it goes, recording every error.

@@ -14,14 +14,18 @@
 use proc_macro2::{Delimiter, Group, Ident, Span, TokenStream, TokenTree};
 use syn::{Attribute, Visibility};
 
+use super::certificate;
 use super::expr::{split_commas, ExprParser};
 use super::syntax::{
-    ConstDef, Degree, Expr, Matrix, Reference, Row, SpanRange, StateDecl, SystemDef,
+    CertificateDecl, ConstDef, Degree, Expr, Matrix, Reference, RegionDecl, RelaxationDecl, Row,
+    SpanRange, StateDecl, SystemDef,
 };
 use crate::diagnostics::Diagnostics;
 
 const SECTIONS: &str = "`state (…);`, `const NAME = …;`, `poisson = [[…]];`, \
-    `hamiltonian = …;`, `entropy degree N;`, `metric degree N;` or `reference { … }`";
+    `hamiltonian = …;`, `entropy degree N;`, `metric degree N;`, `reference { … }`, \
+    `region ball(…);` or `region box(…);`, `certificate on region;`, `relaxation order N;` \
+    or `classical;`";
 
 const MATRIX_HINT: &str = "a matrix is written row by row, e.g. `[[0, 1], [-1, 0]]`";
 
@@ -51,6 +55,10 @@ pub fn parse_system(input: TokenStream, scope: Scope, diagnostics: &mut Diagnost
         entropy_degree: None,
         metric_degree: None,
         reference: None,
+        region: None,
+        certificate: None,
+        relaxation: None,
+        classical: None,
     };
     if scope == Scope::HeaderOnly {
         return def;
@@ -81,6 +89,10 @@ struct Seen {
     entropy: bool,
     metric: bool,
     reference: bool,
+    region: bool,
+    certificate: bool,
+    relaxation: bool,
+    classical: bool,
 }
 
 fn report_missing(def: &SystemDef, seen: &Seen, end: Span, diagnostics: &mut Diagnostics) {
@@ -135,6 +147,10 @@ fn section(
         "entropy" => &mut seen.entropy,
         "metric" => &mut seen.metric,
         "reference" => &mut seen.reference,
+        "region" => &mut seen.region,
+        "certificate" => &mut seen.certificate,
+        "relaxation" => &mut seen.relaxation,
+        "classical" => &mut seen.classical,
         "const" => {
             cursor.next();
             def.consts.push(const_section(cursor, diagnostics)?);
@@ -189,7 +205,7 @@ fn section(
             }
         }
         "entropy" | "metric" => {
-            let degree = degree_section(cursor, keyword, diagnostics)?;
+            let degree = number_section(cursor, keyword, "degree", "the degree", diagnostics)?;
             if first {
                 if word == "entropy" {
                     def.entropy_degree = Some(degree);
@@ -197,6 +213,57 @@ fn section(
                     def.metric_degree = Some(degree);
                 }
             }
+        }
+        // The optional sections of a certificate count as declared even when
+        // they fail to parse: their own error is enough, and `certificate`
+        // after a broken `region` is not "without a region".
+        "region" => {
+            if first {
+                def.region = Some(RegionDecl {
+                    keyword: keyword.span(),
+                    shape: None,
+                });
+            }
+            let shape = certificate::region_section(cursor, keyword, diagnostics)?;
+            if let (true, Some(region)) = (first, def.region.as_mut()) {
+                region.shape = shape;
+            }
+        }
+        "certificate" => {
+            if first {
+                def.certificate = Some(CertificateDecl {
+                    keyword: keyword.span(),
+                    mode: None,
+                });
+            }
+            let mode = certificate::mode_section(cursor, keyword, diagnostics)?;
+            if let (true, Some(certificate)) = (first, def.certificate.as_mut()) {
+                certificate.mode = Some(mode);
+            }
+        }
+        "relaxation" => {
+            if first {
+                def.relaxation = Some(RelaxationDecl {
+                    keyword: keyword.span(),
+                    order: None,
+                });
+            }
+            let order = number_section(
+                cursor,
+                keyword,
+                "order",
+                "the relaxation order",
+                diagnostics,
+            )?;
+            if let (true, Some(relaxation)) = (first, def.relaxation.as_mut()) {
+                relaxation.order = Some(order);
+            }
+        }
+        "classical" => {
+            if first {
+                def.classical = Some(keyword.span());
+            }
+            cursor.semicolon_after(keyword.span(), "`classical`", diagnostics);
         }
         _ => {
             let reference = reference_section(cursor, diagnostics)?;
@@ -466,21 +533,28 @@ fn matrix(tokens: &[TokenTree], end: Span, diagnostics: &mut Diagnostics) -> Opt
     })
 }
 
-/// `degree N;` after `entropy` or `metric`.
-fn degree_section(
+/// `degree N;` after `entropy` or `metric`, `order N;` after `relaxation`:
+/// `word` is the word before the number, `what` names the number.
+fn number_section(
     cursor: &mut Cursor,
     keyword: &Ident,
+    word: &str,
+    what: &str,
     diagnostics: &mut Diagnostics,
 ) -> syn::Result<Degree> {
-    let example = format!("write `{keyword} degree 4;`");
+    let example = if word == "degree" {
+        format!("write `{keyword} degree 4;`")
+    } else {
+        format!("write `{keyword} {word} 1;`")
+    };
     match cursor.peek() {
-        Some(TokenTree::Ident(word)) if word == "degree" => {
+        Some(TokenTree::Ident(found)) if found == word => {
             cursor.next();
         }
         _ => {
             return Err(syn::Error::new(
                 cursor.next_span(),
-                format!("expected `degree`: {example}"),
+                format!("expected `{word}`: {example}"),
             ))
         }
     }
@@ -490,14 +564,14 @@ fn degree_section(
             _ => {
                 return Err(syn::Error::new(
                     literal.span(),
-                    format!("the degree is a non-negative integer literal: {example}"),
+                    format!("{what} is a non-negative integer literal: {example}"),
                 ))
             }
         },
         _ => {
             return Err(syn::Error::new(
                 cursor.next_span(),
-                format!("the degree is a non-negative integer literal: {example}"),
+                format!("{what} is a non-negative integer literal: {example}"),
             ))
         }
     };
@@ -505,10 +579,10 @@ fn degree_section(
     let value = literal.base10_parse::<u32>().map_err(|_| {
         syn::Error::new(
             literal.span(),
-            format!("the degree is a small non-negative integer: {example}"),
+            format!("{what} is a small non-negative integer: {example}"),
         )
     })?;
-    cursor.semicolon_after(literal.span(), "the degree", diagnostics);
+    cursor.semicolon_after(literal.span(), what, diagnostics);
     Ok(Degree {
         value,
         span: literal.span(),
@@ -633,15 +707,15 @@ fn look_through(token: TokenTree) -> TokenTree {
 }
 
 /// The tokens of a section's right-hand side and what ended it.
-struct Body {
-    tokens: Vec<TokenTree>,
+pub(super) struct Body {
+    pub(super) tokens: Vec<TokenTree>,
     /// The `;` after the body, or its last token: where "expected an
     /// operand" errors at its end point.
-    end: Span,
+    pub(super) end: Span,
 }
 
 /// A position in a flat list of token trees.
-struct Cursor {
+pub(super) struct Cursor {
     tokens: Vec<TokenTree>,
     position: usize,
     level: Level,
@@ -657,15 +731,15 @@ impl Cursor {
         }
     }
 
-    fn peek(&self) -> Option<&TokenTree> {
+    pub(super) fn peek(&self) -> Option<&TokenTree> {
         self.peek_at(0)
     }
 
-    fn peek_at(&self, offset: usize) -> Option<&TokenTree> {
+    pub(super) fn peek_at(&self, offset: usize) -> Option<&TokenTree> {
         self.tokens.get(self.position + offset)
     }
 
-    fn next(&mut self) -> Option<TokenTree> {
+    pub(super) fn next(&mut self) -> Option<TokenTree> {
         let token = self.tokens.get(self.position).cloned();
         if token.is_some() {
             self.position += 1;
@@ -673,17 +747,17 @@ impl Cursor {
         token
     }
 
-    fn peek_word(&self, word: &str) -> bool {
+    pub(super) fn peek_word(&self, word: &str) -> bool {
         matches!(self.peek(), Some(TokenTree::Ident(i)) if i == word)
     }
 
-    fn peek_punct_at(&self, offset: usize, c: char) -> bool {
+    pub(super) fn peek_punct_at(&self, offset: usize, c: char) -> bool {
         matches!(self.peek_at(offset), Some(TokenTree::Punct(p)) if p.as_char() == c)
     }
 
     /// The span of the next token, or of the last one at the end: where an
     /// error about what should come next points.
-    fn next_span(&self) -> Span {
+    pub(super) fn next_span(&self) -> Span {
         self.peek().map_or_else(|| self.end_span(), TokenTree::span)
     }
 
@@ -695,7 +769,7 @@ impl Cursor {
     }
 
     /// Whether the next tokens can only be the start of a section.
-    fn at_section_start(&self) -> bool {
+    pub(super) fn at_section_start(&self) -> bool {
         let Some(TokenTree::Ident(word)) = self.peek() else {
             return false;
         };
@@ -704,6 +778,7 @@ impl Cursor {
         let group =
             |delimiter| matches!(next, Some(TokenTree::Group(g)) if g.delimiter() == delimiter);
         let eq = self.peek_punct_at(1, '=');
+        let ident = matches!(next, Some(TokenTree::Ident(_)));
         match (self.level, word.as_str()) {
             (Level::Top, "const") => true,
             (Level::Top, "state") => group(Delimiter::Parenthesis),
@@ -712,6 +787,21 @@ impl Cursor {
                 matches!(next, Some(TokenTree::Ident(d)) if d == "degree")
             }
             (Level::Top, "reference") => group(Delimiter::Brace),
+            // Two names in a row never occur inside a valid section.
+            (Level::Top, "region" | "certificate") => ident,
+            (Level::Top, "relaxation") => {
+                matches!(next, Some(TokenTree::Ident(o)) if o == "order")
+            }
+            // `classical;` could also end an expression that uses a variable
+            // or constant named `classical` (`H = p + classical;`): there an
+            // operator or `=` precedes it.
+            (Level::Top, "classical") => {
+                self.peek_punct_at(1, ';')
+                    && !matches!(
+                        self.position.checked_sub(1).and_then(|i| self.tokens.get(i)),
+                        Some(TokenTree::Punct(p)) if p.as_char() != ';'
+                    )
+            }
             (Level::Reference, "entropy" | "metric") => eq,
             _ => false,
         }
@@ -719,7 +809,7 @@ impl Cursor {
 
     /// Recovery after an error: skips past the next top-level `;` or braced
     /// group, or up to the next section start, whichever comes first.
-    fn skip_section(&mut self) {
+    pub(super) fn skip_section(&mut self) {
         while let Some(token) = self.peek() {
             if self.at_section_start() {
                 return;
@@ -740,7 +830,7 @@ impl Cursor {
     }
 
     /// Expects `=` after `keyword`.
-    fn expect_eq(&mut self, keyword: &Ident) -> syn::Result<()> {
+    pub(super) fn expect_eq(&mut self, keyword: &Ident) -> syn::Result<()> {
         if self.peek_punct_at(0, '=') {
             self.next();
             Ok(())
@@ -754,7 +844,12 @@ impl Cursor {
 
     /// The tokens up to the next top-level `;` (consumed) or section start.
     /// A missing `;` is recorded, and the body is still returned.
-    fn body(&mut self, keyword: Span, what: &str, diagnostics: &mut Diagnostics) -> Body {
+    pub(super) fn body(
+        &mut self,
+        keyword: Span,
+        what: &str,
+        diagnostics: &mut Diagnostics,
+    ) -> Body {
         let mut tokens = Vec::new();
         while let Some(token) = self.peek() {
             if self.peek_punct_at(0, ';') {
@@ -778,7 +873,12 @@ impl Cursor {
     }
 
     /// Expects `;` after a construct ending at `after`; records its absence.
-    fn semicolon_after(&mut self, after: Span, what: &str, diagnostics: &mut Diagnostics) {
+    pub(super) fn semicolon_after(
+        &mut self,
+        after: Span,
+        what: &str,
+        diagnostics: &mut Diagnostics,
+    ) {
         if self.peek_punct_at(0, ';') {
             self.next();
         } else {

@@ -192,6 +192,84 @@ pub struct Reference {
     pub metric: Option<Matrix>,
 }
 
+/// A list of constant expressions in brackets, `[0, 1/2]`.
+#[derive(Debug, Clone)]
+pub struct Vector {
+    /// Span of the brackets.
+    pub span: Span,
+    /// The entries; `None` where an entry failed to parse (already reported).
+    pub entries: Vec<Option<Expr>>,
+}
+
+/// `name in [lower, upper]`: one side of a box region.
+#[derive(Debug, Clone)]
+pub struct Interval {
+    /// The state variable it bounds, as written.
+    pub name: Ident,
+    /// Span of the brackets.
+    pub span: Span,
+    /// The lower bound; `None` if it failed to parse (already reported).
+    pub lower: Option<Expr>,
+    /// The upper bound; `None` if it failed to parse (already reported).
+    pub upper: Option<Expr>,
+}
+
+/// The shape after `region`.
+#[derive(Debug, Clone)]
+pub enum RegionShape {
+    /// `ball(center = [c₁, …], radius = ρ)`; the centre defaults to the origin.
+    Ball {
+        /// `center = […]`, if written.
+        center: Option<Vector>,
+        /// `radius = …`; `None` if missing or broken (already reported).
+        radius: Option<Expr>,
+    },
+    /// `box(q in [l, u], …)`, one interval per state variable.
+    Box {
+        /// Span of `box`.
+        keyword: Span,
+        /// The intervals, in the order written.
+        intervals: Vec<Interval>,
+    },
+}
+
+/// `region …;`
+#[derive(Debug, Clone)]
+pub struct RegionDecl {
+    /// Span of the `region` keyword.
+    pub keyword: Span,
+    /// The shape; `None` if it failed to parse (already reported).
+    pub shape: Option<RegionShape>,
+}
+
+/// Which bounds of 0 ⪯ K(x) ⪯ ηI a region certificate proves where.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// `certificate global lower bound;` (the default): K(x) ⪰ 0 everywhere,
+    /// K(x) ⪯ ηI on the region.
+    GlobalLowerBound,
+    /// `certificate on region;`: both bounds on the region only.
+    OnRegion,
+}
+
+/// `certificate …;`
+#[derive(Debug, Clone, Copy)]
+pub struct CertificateDecl {
+    /// Span of the `certificate` keyword.
+    pub keyword: Span,
+    /// The mode; `None` if it failed to parse (already reported).
+    pub mode: Option<Mode>,
+}
+
+/// `relaxation order N;`
+#[derive(Debug, Clone, Copy)]
+pub struct RelaxationDecl {
+    /// Span of the `relaxation` keyword.
+    pub keyword: Span,
+    /// The order; `None` if it failed to parse (already reported).
+    pub order: Option<Degree>,
+}
+
 /// A whole `metriplectic! { … }` invocation, as far as it parsed.
 #[derive(Debug, Clone)]
 pub struct SystemDef {
@@ -215,4 +293,12 @@ pub struct SystemDef {
     pub metric_degree: Option<Degree>,
     /// The reference model, if declared.
     pub reference: Option<Reference>,
+    /// The region of the metric certificate, if declared (even if broken).
+    pub region: Option<RegionDecl>,
+    /// The certificate mode, if declared.
+    pub certificate: Option<CertificateDecl>,
+    /// The relaxation order, if declared.
+    pub relaxation: Option<RelaxationDecl>,
+    /// Span of the `classical` keyword, if declared.
+    pub classical: Option<Span>,
 }
