@@ -7,7 +7,9 @@
 //! metric bases are slices of one list of monomials evaluated once.
 
 use std::cmp::Ordering;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
+
+use crate::polynomial::{Exact, Rational};
 
 /// The bases of a system with checked degrees.
 #[derive(Debug)]
@@ -140,6 +142,50 @@ pub fn matching_table(half: &[Vec<u32>], targets: &[Vec<u32>]) -> Vec<Vec<(usize
         }
     }
     table
+}
+
+/// The matching table of one S-procedure Gram block g(x)·Z(x)ᵀQZ(x), with
+/// g = Σ cₜ x^eₜ given by its `multiplier` terms (the constant 1 for a plain
+/// block): for each `target` monomial α, the ordered pairs (β, γ) of indices
+/// into `half` with the coefficient of x^α in g(x)·x^β·x^γ, each pair at most
+/// once per α (equal products summed, zero sums dropped), sorted by (β, γ).
+///
+/// The caller chooses `targets` to hold every product (all monomials up to
+/// the largest degree of g times the degree of `half` squared); a product
+/// outside them would be a bug of the caller and is left out.
+pub fn block_matching(
+    multiplier: &[(Rational, Vec<u32>)],
+    half: &[Vec<u32>],
+    targets: &[Vec<u32>],
+) -> Exact<Vec<Vec<(usize, usize, Rational)>>> {
+    let target_index = index_of(targets);
+    let mut table: Vec<BTreeMap<(usize, usize), Rational>> = vec![BTreeMap::new(); targets.len()];
+    for (b, beta) in half.iter().enumerate() {
+        for (g, gamma) in half.iter().enumerate() {
+            for (coefficient, e) in multiplier {
+                let product: Vec<u32> = beta
+                    .iter()
+                    .zip(gamma)
+                    .zip(e)
+                    .map(|((x, y), z)| x + y + z)
+                    .collect();
+                if let Some(&a) = target_index.get(product.as_slice()) {
+                    let entry = table[a].entry((b, g)).or_insert(Rational::ZERO);
+                    *entry = entry.add(*coefficient)?;
+                }
+            }
+        }
+    }
+    Ok(table
+        .into_iter()
+        .map(|pairs| {
+            pairs
+                .into_iter()
+                .filter(|(_, c)| !c.is_zero())
+                .map(|((b, g), c)| (b, g, c))
+                .collect()
+        })
+        .collect())
 }
 
 /// The facially reduced SOS tables of the two-sided global certificate

@@ -109,7 +109,6 @@ impl Rational {
     }
 
     /// `-self`.
-    #[cfg(test)]
     pub fn neg(self) -> Exact<Rational> {
         Ok(Rational {
             num: self.num.checked_neg().ok_or(Overflow)?,
@@ -118,7 +117,6 @@ impl Rational {
     }
 
     /// `self - other`.
-    #[cfg(test)]
     pub fn sub(self, other: Rational) -> Exact<Rational> {
         self.add(other.neg()?)
     }
@@ -272,6 +270,15 @@ impl Polynomial {
         let mut p = Polynomial::zero(nvars);
         if !value.is_zero() {
             p.terms.insert(vec![0; nvars], value);
+        }
+        p
+    }
+
+    /// `coefficient · x^exponents`.
+    pub fn monomial(exponents: Exponents, coefficient: Rational) -> Polynomial {
+        let mut p = Polynomial::zero(exponents.len());
+        if !coefficient.is_zero() {
+            p.terms.insert(exponents, coefficient);
         }
         p
     }

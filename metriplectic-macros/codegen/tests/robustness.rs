@@ -144,6 +144,19 @@ const WORDS: &[&str] = &[
     "degree",
     "reference",
     "const",
+    "region",
+    "ball",
+    "box",
+    "center",
+    "radius",
+    "certificate",
+    "on",
+    "global",
+    "lower",
+    "bound",
+    "relaxation",
+    "order",
+    "classical",
     "pub",
     "struct",
     "fn",
@@ -213,7 +226,7 @@ fn soup() -> impl Strategy<Value = String> {
 }
 
 /// A valid system with `{}` holes, one per section, for soup insertion.
-const SECTIONS: [&str; 8] = [
+const SECTIONS: [&str; 11] = [
     "pub struct S;",
     "state (q, p);",
     "const m = 2;",
@@ -222,6 +235,9 @@ const SECTIONS: [&str; 8] = [
     "entropy degree 4;",
     "metric degree 2;",
     "reference { entropy = -q^4 + p^2; metric = [[1, 0], [0, 1]]; }",
+    "region ball(center = [0, 0], radius = 2);",
+    "certificate on region;",
+    "relaxation order 1;",
 ];
 
 /// Replaces the right-hand side (or the whole) of one section with soup.
@@ -258,7 +274,7 @@ fn token_soups_never_panic() {
 
 // ---- generator (b): mutated paper systems -----------------------------------
 
-const PAPER_SYSTEMS: [&str; 3] = [
+const PAPER_SYSTEMS: [&str; 5] = [
     "/// Canonical oscillator whose free energy has a figure-eight zero set.
      pub struct Oscillator;
      state (q, p);
@@ -290,6 +306,39 @@ const PAPER_SYSTEMS: [&str; 3] = [
      hamiltonian = 0.5 * (p1^2 + p2^2) + k * (q1 - q2)^2 + q1^4;
      metric degree 0;
      entropy degree 3;",
+    // The rigid body in the classical form, certified on a box.
+    "pub struct Classical;
+     state (px, py, pz);
+     const j1 = 0.1;
+     const j2 = 0.2;
+     const j3 = 0.15;
+     poisson = [[0, -pz, py], [pz, 0, -px], [-py, px, 0]];
+     hamiltonian = 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
+     entropy degree 4;
+     metric degree 2;
+     region box(px in [-2, 2], py in [-2, 2], pz in [-1.5, 1.5]);
+     certificate on region;
+     relaxation order 1;
+     classical;
+     reference {
+         entropy = -0.5 * (px^2 + py^2 + pz^2 - 1)^2;
+         metric = [[(py / j2)^2 + (pz / j3)^2, -px * py / (j1 * j2), -px * pz / (j1 * j3)],
+                   [-px * py / (j1 * j2), (px / j1)^2 + (pz / j3)^2, -py * pz / (j2 * j3)],
+                   [-px * pz / (j1 * j3), -py * pz / (j2 * j3), (px / j1)^2 + (py / j2)^2]];
+     }",
+    // A state-dependent reference metric on a ball.
+    "pub struct Region;
+     state (q, p);
+     const rho = 3 / 2;
+     poisson = [[0, 1], [-1, 0]];
+     hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+     entropy degree 4;
+     metric degree 2;
+     region ball(center = [0.5, 0], radius = 2 * rho);
+     reference {
+         entropy = -q^2 - p^4;
+         metric = [[1 + p^2, -q * p], [-q * p, 1 + q^2]];
+     }",
 ];
 
 /// Lexes source text into a flat list of token texts, groups as separate
@@ -485,9 +534,49 @@ fn polynomial_text(n: usize, max_degree: u32) -> impl Strategy<Value = String> {
     prop::collection::vec(term, 1..6).prop_map(|terms| terms.join(" + "))
 }
 
+/// A region over the first `n` names: a ball or a box with small integer
+/// data, and optionally a certificate mode and a relaxation order.
+fn region_text(n: usize) -> impl Strategy<Value = String> {
+    (
+        any::<bool>(),
+        prop::collection::vec((-3i32..=3, 1i32..=4), n),
+        1u32..=5,
+        prop_oneof![
+            Just(""),
+            Just("certificate on region;\n"),
+            Just("certificate global lower bound;\n")
+        ],
+        prop_oneof![
+            Just(""),
+            Just("relaxation order 0;\n"),
+            Just("relaxation order 1;\n")
+        ],
+    )
+        .prop_map(move |(ball, sides, radius, mode, order)| {
+            let names = &NAMES[..n];
+            let shape = if ball {
+                let center: Vec<String> = sides.iter().map(|(c, _)| c.to_string()).collect();
+                format!(
+                    "ball(center = [{}], radius = {radius} / 2)",
+                    center.join(", ")
+                )
+            } else {
+                let intervals: Vec<String> = names
+                    .iter()
+                    .zip(&sides)
+                    .map(|(name, (l, w))| format!("{name} in [{l}, {l} + {w}]"))
+                    .collect();
+                format!("box({})", intervals.join(", "))
+            };
+            format!("region {shape};\n{mode}{order}")
+        })
+}
+
 /// A valid system: constant skew Π (always Poisson) or so(3) for n = 3,
 /// polynomial H, entropy degree 1..=4, metric degree 0 or 2, optional
-/// reference within the bases.
+/// reference within the bases, a region whenever the reference metric may
+/// depend on the state (and sometimes otherwise); for so(3) with a
+/// quadratic H, sometimes the classical form with a classical reference.
 fn valid_system() -> impl Strategy<Value = String> {
     (1usize..=4, 1u32..=4, prop_oneof![Just(0u32), Just(2u32)]).prop_flat_map(|(n, r, s)| {
         let pairs = n * (n - 1) / 2;
@@ -499,52 +588,110 @@ fn valid_system() -> impl Strategy<Value = String> {
                 polynomial_text(n, r),
                 prop::collection::vec(polynomial_text(n, s / 2), n),
             )),
+            prop::option::of(region_text(n)),
+            (any::<bool>(), prop::collection::vec(1i32..=5, 3)),
         )
-            .prop_map(move |(upper, lie_poisson, hamiltonian, reference)| {
-                let names = &NAMES[..n];
-                let mut pi = vec![vec!["0".to_string(); n]; n];
-                if n == 3 && lie_poisson {
-                    let (q, p, r) = (names[0], names[1], names[2]);
-                    pi = vec![
-                        vec!["0".into(), format!("-{r}"), p.into()],
-                        vec![r.into(), "0".into(), format!("-{q}")],
-                        vec![format!("-{p}"), q.into(), "0".into()],
-                    ];
-                } else {
-                    let mut upper = upper.iter();
-                    for (i, j) in (0..n).flat_map(|i| (i + 1..n).map(move |j| (i, j))) {
-                        let value = upper.next().copied().unwrap_or(0);
-                        pi[i][j] = value.to_string();
-                        pi[j][i] = (-value).to_string();
+            .prop_map(
+                move |(
+                    upper,
+                    lie_poisson,
+                    hamiltonian,
+                    reference,
+                    region,
+                    (classical, inertia),
+                )| {
+                    let names = &NAMES[..n];
+                    let mut pi = vec![vec!["0".to_string(); n]; n];
+                    if n == 3 && lie_poisson {
+                        let (q, p, r) = (names[0], names[1], names[2]);
+                        pi = vec![
+                            vec!["0".into(), format!("-{r}"), p.into()],
+                            vec![r.into(), "0".into(), format!("-{q}")],
+                            vec![format!("-{p}"), q.into(), "0".into()],
+                        ];
+                    } else {
+                        let mut upper = upper.iter();
+                        for (i, j) in (0..n).flat_map(|i| (i + 1..n).map(move |j| (i, j))) {
+                            let value = upper.next().copied().unwrap_or(0);
+                            pi[i][j] = value.to_string();
+                            pi[j][i] = (-value).to_string();
+                        }
                     }
-                }
-                let matrix = |m: &Vec<Vec<String>>| {
-                    let rows: Vec<String> = m
-                        .iter()
-                        .map(|row| format!("[{}]", row.join(", ")))
-                        .collect();
-                    format!("[{}]", rows.join(", "))
-                };
-                let mut text = format!(
+                    let matrix = |m: &Vec<Vec<String>>| {
+                        let rows: Vec<String> = m
+                            .iter()
+                            .map(|row| format!("[{}]", row.join(", ")))
+                            .collect();
+                        format!("[{}]", rows.join(", "))
+                    };
+                    // so(3) with H = ½ Σ aᵢxᵢ²: Casimirs from degree 2 on, and
+                    // K = |∇H|²I − ∇H∇Hᵀ of degree 2 with K∇H ≡ 0.
+                    let classical = classical && n == 3 && lie_poisson && r >= 2 && s == 2;
+                    let hamiltonian = if classical {
+                        let terms: Vec<String> = names
+                            .iter()
+                            .zip(&inertia)
+                            .map(|(name, a)| format!("{a} * {name}^2"))
+                            .collect();
+                        format!("0.5 * ({})", terms.join(" + "))
+                    } else {
+                        hamiltonian
+                    };
+                    let region = match region {
+                        None if classical || (reference.is_some() && s > 0) => {
+                            Some(format!("region ball(radius = 2);\n"))
+                        }
+                        region => region,
+                    };
+                    let mut text = format!(
                     "pub struct Random;\nstate ({});\npoisson = {};\nhamiltonian = {hamiltonian};\n\
-                     entropy degree {r};\nmetric degree {s};\n",
+                     entropy degree {r};\nmetric degree {s};\n{}",
                     names.join(", "),
-                    matrix(&pi)
+                    matrix(&pi),
+                    region.unwrap_or_default()
                 );
-                if let Some((entropy, diagonal)) = reference {
-                    // A diagonal metric of squares: symmetric and positive
-                    // semidefinite by construction (constant ones are checked).
-                    let mut metric = vec![vec!["0".to_string(); n]; n];
-                    for (i, d) in diagonal.into_iter().enumerate() {
-                        metric[i][i] = format!("({d})^2");
+                    if classical {
+                        text += "classical;\n";
+                        let gradient: Vec<String> = names
+                            .iter()
+                            .zip(&inertia)
+                            .map(|(name, a)| format!("{a} * {name}"))
+                            .collect();
+                        let mut metric = vec![vec![String::new(); 3]; 3];
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                metric[i][j] = if i == j {
+                                    let others: Vec<String> = (0..3)
+                                        .filter(|&k| k != i)
+                                        .map(|k| format!("({})^2", gradient[k]))
+                                        .collect();
+                                    others.join(" + ")
+                                } else {
+                                    format!("-({}) * ({})", gradient[i], gradient[j])
+                                };
+                            }
+                        }
+                        let squared: Vec<String> = names.iter().map(|n| format!("{n}^2")).collect();
+                        text += &format!(
+                            "reference {{ entropy = -({}); metric = {}; }}\n",
+                            squared.join(" + "),
+                            matrix(&metric)
+                        );
+                    } else if let Some((entropy, diagonal)) = reference {
+                        // A diagonal metric of squares: symmetric and positive
+                        // semidefinite by construction (constant ones are checked).
+                        let mut metric = vec![vec!["0".to_string(); n]; n];
+                        for (i, d) in diagonal.into_iter().enumerate() {
+                            metric[i][i] = format!("({d})^2");
+                        }
+                        text += &format!(
+                            "reference {{ entropy = {entropy}; metric = {}; }}\n",
+                            matrix(&metric)
+                        );
                     }
-                    text += &format!(
-                        "reference {{ entropy = {entropy}; metric = {}; }}\n",
-                        matrix(&metric)
-                    );
-                }
-                text
-            })
+                    text
+                },
+            )
     })
 }
 

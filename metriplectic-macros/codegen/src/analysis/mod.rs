@@ -13,12 +13,14 @@ mod degrees;
 mod names;
 mod poisson;
 mod reference;
+mod region;
 mod scope;
 
 use proc_macro2::Ident;
 use syn::{Attribute, Visibility};
 
 pub use reference::ReferenceModel;
+pub use region::{Block, CertificateModel, RegionModel};
 
 use crate::bases::Bases;
 use crate::diagnostics::Diagnostics;
@@ -52,6 +54,8 @@ pub struct System {
     pub bases: Bases,
     /// The reference model, if declared.
     pub reference: Option<ReferenceModel>,
+    /// The region certificate, if a region is declared.
+    pub certificate: Option<CertificateModel>,
 }
 
 /// Checks a parsed system and converts it to exact polynomials and bases.
@@ -111,6 +115,28 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
     let n = states.names.len();
 
     let bases = degrees::bases(n, entropy_degree, metric_degree);
+    // The region and the certificate's options, in the order written in the
+    // docs: region, certificate, relaxation.
+    let region = def
+        .region
+        .as_ref()
+        .and_then(|decl| region::check_region(decl, &scope, diagnostics));
+    let options = region::options(def, n, diagnostics);
+    let certificate = match (region, options, bases.as_ref(), def.region.as_ref()) {
+        (Some((region, constraints)), Some(options), Some(bases), Some(decl)) => {
+            let order = def.relaxation.and_then(|r| r.order);
+            region::certificate(
+                region,
+                constraints,
+                options,
+                bases,
+                n,
+                (decl.keyword, order),
+                diagnostics,
+            )
+        }
+        _ => None,
+    };
     let reference = def.reference.as_ref().map(|reference| {
         reference::check_reference(
             &scope,
@@ -118,6 +144,7 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
             entropy_degree,
             metric_degree,
             bases.as_ref(),
+            def.region.is_some(),
             diagnostics,
         )
     });
@@ -142,6 +169,7 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
         poisson: poisson?,
         bases: bases?,
         reference,
+        certificate,
     })
 }
 
@@ -294,8 +322,24 @@ mod tests {
             zero_pivot[0].contains("not positive semidefinite"),
             "{zero_pivot:?}"
         );
-        // Non-constant metrics are not decided at compile time.
-        assert!(system(quote!([[1 + q ^ 2, 0], [0, 1]])).is_ok());
+        // Without a region a metric must be constant (it is bounded on all
+        // of Rⁿ); with one, non-constant metrics are not decided at compile
+        // time.
+        let varying = system(quote!([[1 + q ^ 2, 0], [0, 1]]))
+            .expect_err("needs a region")
+            .messages();
+        assert!(
+            varying.len() == 1 && varying[0].contains("declare the region where the data live"),
+            "{varying:?}"
+        );
+        let on_region = crate::try_expand(quote! {
+            struct S; state (q, p);
+            poisson = [[0, 1], [-1, 0]];
+            hamiltonian = q^2; entropy degree 2; metric degree 2;
+            region box(q in [-1, 1], p in [-1, 1]);
+            reference { entropy = -q^2; metric = [[1 + q^2, 0], [0, 1]]; }
+        });
+        assert!(on_region.is_ok());
         // Denominators of 13 digits overflow 128 bits within two pivots.
         let overflow = crate::try_expand(quote! {
             struct S; state (x, y, z);

@@ -32,6 +32,7 @@ pub fn check_reference(
     entropy_degree: Option<u32>,
     metric_degree: Option<u32>,
     bases: Option<&Bases>,
+    region: bool,
     diagnostics: &mut Diagnostics,
 ) -> Option<ReferenceModel> {
     let entropy = reference.entropy.as_ref().and_then(|expr| {
@@ -52,7 +53,7 @@ pub fn check_reference(
     let metric = reference
         .metric
         .as_ref()
-        .and_then(|matrix| check_metric(scope, matrix, metric_degree, diagnostics));
+        .and_then(|matrix| check_metric(scope, matrix, metric_degree, region, diagnostics));
     let (entropy, metric, bases) = (entropy?, metric?, bases?);
 
     let n = scope.nvars();
@@ -87,6 +88,7 @@ fn check_metric(
     scope: &Scope,
     matrix: &Matrix,
     metric_degree: Option<u32>,
+    region: bool,
     diagnostics: &mut Diagnostics,
 ) -> Option<Vec<Polynomial>> {
     let metric = scope.matrix(matrix, "the reference metric K", diagnostics)?;
@@ -124,7 +126,7 @@ fn check_metric(
         }
     }
     if valid {
-        valid = check_definiteness(&metric, matrix, names, diagnostics);
+        valid = check_definiteness(&metric, matrix, names, region, diagnostics);
     }
     valid.then_some(metric)
 }
@@ -132,26 +134,38 @@ fn check_metric(
 /// Whether the reference metric is positive semidefinite, as far as the
 /// compiler can decide it.
 ///
-/// A constant metric is decided exactly here. A non-constant one must be
-/// positive semidefinite on the region where data live, which the DSL does
-/// not declare yet; it is accepted unchecked. A future `region` section
-/// plugs in here: it would certify K ⪰ 0 on the region with the SOS tables
-/// (`SOS_FULL`), a job for the runtime's solver rather than for exact
+/// A constant metric is decided exactly here. A non-constant one needs a
+/// region: bounded on all of Rⁿ (0 ⪯ K(x) ⪯ ηI), a matrix polynomial is
+/// constant, so without a region it is an error. With one it is accepted
+/// here; certifying it on the region is a semidefinite program, a job for
+/// the runtime's solver (`REGION_CERTIFICATE`) rather than for exact
 /// elimination.
 fn check_definiteness(
     metric: &[Polynomial],
     matrix: &Matrix,
     names: &[String],
+    region: bool,
     diagnostics: &mut Diagnostics,
 ) -> bool {
+    let span = SpanRange::single(matrix.span);
     let Some(constant) = metric
         .iter()
         .map(Polynomial::as_constant)
         .collect::<Option<Vec<Rational>>>()
     else {
-        return true;
+        if region {
+            return true;
+        }
+        let n = names.len();
+        diagnostics.push(span.error(format!(
+            "the reference metric depends on the state, but without a region the metric must be \
+             constant: 0 ⪯ K(x) ⪯ ηI on all of Rⁿ, as the metric search certifies it, holds only \
+             for constant K; declare the region where the data live, e.g. {}, or use a constant \
+             metric",
+            super::region::ball_example(n)
+        )));
+        return false;
     };
-    let span = SpanRange::single(matrix.span);
     match definiteness::semidefinite(&constant, names.len()) {
         Ok(Definiteness::Semidefinite) => true,
         Ok(Definiteness::Indefinite { witness, value }) => {

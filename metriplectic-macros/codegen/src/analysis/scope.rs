@@ -49,6 +49,9 @@ pub enum Context<'a> {
     /// H, Π or the reference: state variables and every constant, wherever
     /// it is declared.
     State,
+    /// The numbers of a region: every constant, wherever it is declared,
+    /// and no state variable.
+    Region,
 }
 
 /// The state variables and constants of a system.
@@ -145,6 +148,25 @@ impl Scope {
                 }
                 message
             }
+            Context::Region => {
+                let mut message = format!(
+                    "unknown name `{name}`; the region is given by constant expressions, which \
+                     may use numbers and constants"
+                );
+                if !self.const_names.is_empty() {
+                    message += &format!(" (here: {})", list(&self.const_names));
+                }
+                match close {
+                    Some(close) => message += &format!("; did you mean `{close}`?"),
+                    None => {
+                        message += &format!(
+                            "; to use a named constant, declare it with `const {name} = …;` \
+                             anywhere in the invocation"
+                        )
+                    }
+                }
+                message
+            }
             Context::State => {
                 let mut message = format!(
                     "unknown name `{name}`; the state variables are {}",
@@ -183,6 +205,16 @@ impl Scope {
                 let name = name_of(ident);
                 match (self.symbols.get(&name), context) {
                     (Some(Symbol::State(i)), Context::State) => Some(Polynomial::variable(n, *i)),
+                    (Some(Symbol::State(_)), Context::Region) => {
+                        diagnostics.push(syn::Error::new(
+                            ident.span(),
+                            format!(
+                                "the region is fixed, so its numbers cannot depend on the state \
+                                 variable `{name}`; write a number or a constant"
+                            ),
+                        ));
+                        None
+                    }
                     (Some(Symbol::State(_)), Context::Const(_)) => {
                         diagnostics.push(syn::Error::new(
                             ident.span(),

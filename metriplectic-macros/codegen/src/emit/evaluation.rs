@@ -50,6 +50,7 @@ pub fn module(system: &System, jacobian: &[JacobianTerm], straight_gradient: boo
     } else {
         TokenStream::new()
     };
+    let tables = super::certificate::tables_module(system);
     // `non_snake_case`: state variables are named as the user wrote them;
     // `suboptimal_flops` (nursery): `mul_add` would change the rounding of
     // the written formulas.
@@ -64,6 +65,7 @@ pub fn module(system: &System, jacobian: &[JacobianTerm], straight_gradient: boo
             #poisson
             #monomials
             #entropy_gradient
+            #tables
         }
     }
 }

@@ -9,6 +9,7 @@
 //! name in the generated code can clash with a user's name.
 
 mod bindings;
+mod certificate;
 mod evaluation;
 mod literals;
 mod struct_item;

@@ -7,8 +7,10 @@ use syn::punctuated::Punctuated;
 use syn::{Attribute, Token, Visibility};
 
 use super::bindings;
+use super::certificate;
 use super::literals::doc;
 use crate::analysis::System;
+use crate::parse::Mode;
 use crate::polynomial::Polynomial;
 
 /// The derives the struct gets: `MetriplecticSystem` needs `Debug`, `Copy`
@@ -126,6 +128,7 @@ pub fn docs(system: &System) -> Vec<String> {
             matrix_text(&reference.metric, n, names)
         ));
     }
+    docs.extend(certificate_docs(system));
     let (_, derived) = derives(&system.attrs);
     if !derived.is_empty() {
         docs.push(format!(
@@ -137,6 +140,43 @@ pub fn docs(system: &System) -> Vec<String> {
         "* Implements `MetriplecticSystem`; the evaluation code is in the hidden module `{}`.",
         bindings::module_name(&system.name)
     ));
+    docs
+}
+
+/// The region, the certificate's mode and the classical form, if declared.
+fn certificate_docs(system: &System) -> Vec<String> {
+    let names = &system.state_names;
+    let mut docs = Vec::new();
+    if let Some(certificate) = &system.certificate {
+        let constraints: Vec<String> = certificate
+            .constraints
+            .iter()
+            .map(|g| format!("`{}` ≥ 0", g.display(names)))
+            .collect();
+        docs.push(format!(
+            "* Region R: {}, i.e. {}.",
+            certificate.region.describe(names),
+            constraints.join(", ")
+        ));
+        docs.push(format!(
+            "* Metric certificate (`REGION_CERTIFICATE`): {} Relaxation order {}; {} + {} Gram \
+             blocks matched on the {} monomials of degree ≤ {}.",
+            certificate::mode_text(certificate.mode),
+            certificate.relaxation_order,
+            certificate.lower.len(),
+            certificate.upper.len(),
+            certificate.targets.len(),
+            certificate.target_degree
+        ));
+        if certificate.mode == Mode::OnRegion {
+            docs.push(
+                "* **Warning:** with `certificate on region;` the metric is certified positive \
+                 semidefinite only on R, so dE/dt = ∇Eᵀ K ∇E ≥ 0 (the free energy never \
+                 decreasing) is certified only on R, not for states outside it."
+                    .to_string(),
+            );
+        }
+    }
     docs
 }
 
