@@ -8,8 +8,10 @@
 //! `scope`. A part that depends on a broken one is skipped, not reported
 //! again.
 
+mod classical;
 mod definiteness;
 mod degrees;
+mod elimination;
 mod names;
 mod poisson;
 mod reference;
@@ -19,6 +21,7 @@ mod scope;
 use proc_macro2::Ident;
 use syn::{Attribute, Visibility};
 
+pub use classical::ClassicalModel;
 pub use reference::ReferenceModel;
 pub use region::{Block, CertificateModel, RegionModel};
 
@@ -56,6 +59,8 @@ pub struct System {
     pub reference: Option<ReferenceModel>,
     /// The region certificate, if a region is declared.
     pub certificate: Option<CertificateModel>,
+    /// The classical constraints, if declared `classical;`.
+    pub classical: Option<ClassicalModel>,
 }
 
 /// Checks a parsed system and converts it to exact polynomials and bases.
@@ -148,6 +153,22 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
             diagnostics,
         )
     });
+    let classical = def.classical.and_then(|keyword| {
+        let (poisson, (_, gradient), bases) =
+            (poisson.as_ref()?, hamiltonian.as_ref()?, bases.as_ref()?);
+        let inputs = classical::Inputs {
+            poisson,
+            hamiltonian_gradient: gradient,
+            bases,
+            names: &states.names,
+            region: def.region.is_some(),
+        };
+        let model = classical::derive(&inputs, keyword, diagnostics);
+        if let (Some(Some(reference)), Some(syntax)) = (&reference, &def.reference) {
+            classical::check_reference(&inputs, reference, syntax, keyword, diagnostics);
+        }
+        model
+    });
 
     if diagnostics.count() > errors_before {
         return None;
@@ -170,6 +191,7 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
         bases: bases?,
         reference,
         certificate,
+        classical,
     })
 }
 

@@ -12,7 +12,7 @@ use quote::{format_ident, quote};
 
 use super::literals::{doc, rational};
 use super::tables::exponents;
-use crate::analysis::{Block, CertificateModel, RegionModel, System};
+use crate::analysis::{Block, CertificateModel, ClassicalModel, RegionModel, System};
 use crate::parse::Mode;
 use crate::polynomial::Rational;
 
@@ -24,7 +24,7 @@ pub fn module_name() -> Ident {
 /// `tables { … }` inside the evaluation module, or nothing if the system
 /// declares neither a region nor the classical form.
 pub fn tables_module(system: &System) -> TokenStream {
-    if system.certificate.is_none() {
+    if system.certificate.is_none() && system.classical.is_none() {
         return TokenStream::new();
     }
     let module = module_name();
@@ -32,6 +32,11 @@ pub fn tables_module(system: &System) -> TokenStream {
         .certificate
         .as_ref()
         .map(|c| certificate_consts(c, system))
+        .unwrap_or_default();
+    let classical = system
+        .classical
+        .as_ref()
+        .map(|c| classical_consts(c, system))
         .unwrap_or_default();
     let doc = doc(
         "The region certificate and classical tables, as named constants \
@@ -41,6 +46,7 @@ pub fn tables_module(system: &System) -> TokenStream {
         #doc
         pub(super) mod #module {
             #certificate
+            #classical
         }
     }
 }
@@ -54,6 +60,13 @@ pub fn trait_consts(system: &System, evaluation: &Ident) -> TokenStream {
             /// The metric certificate on the declared region (`tables::REGION_CERTIFICATE`).
             const REGION_CERTIFICATE: ::core::option::Option<::metriplectic_runtime::RegionCertificate> =
                 ::core::option::Option::Some(#evaluation::#module::REGION_CERTIFICATE);
+        });
+    }
+    if system.classical.is_some() {
+        out.extend(quote! {
+            /// The classical (GENERIC) constraints (`tables::CLASSICAL`).
+            const CLASSICAL: ::core::option::Option<::metriplectic_runtime::Classical> =
+                ::core::option::Option::Some(#evaluation::#module::CLASSICAL);
         });
     }
     out
@@ -223,5 +236,57 @@ fn gram_block(block: &Block) -> TokenStream {
             exponents: #basis,
             matching: &[#(#rows),*],
         }
+    }
+}
+
+fn linear_forms(forms: &[Vec<(usize, Rational)>]) -> TokenStream {
+    let forms = forms.iter().map(|form| {
+        let entries = form.iter().map(|&(i, c)| {
+            let i = Literal::usize_unsuffixed(i);
+            let c = rational(c);
+            quote!((#i, #c))
+        });
+        quote!(&[#(#entries),*])
+    });
+    quote!(&[#(#forms),*])
+}
+
+fn classical_consts(classical: &ClassicalModel, system: &System) -> TokenStream {
+    let names = &system.state_names;
+    let entropy = linear_forms(&classical.entropy_constraints);
+    let basis = linear_forms(&classical.casimir_basis);
+    let metric = linear_forms(&classical.metric_constraints);
+    let entropy_doc = doc(format!(
+        "The {} independent rows of C_S ψ = 0 (Π(x)J(x)ᵀψ ≡ 0: S is a Casimir of Π), each a \
+         sparse linear form (index into ψ, coefficient) scaled to max |c| = 1.",
+        classical.entropy_constraints.len()
+    ));
+    let casimirs: Vec<String> = classical
+        .casimirs
+        .iter()
+        .map(|c| format!("`{}`", c.display(names)))
+        .collect();
+    let basis_doc = doc(format!(
+        "A basis of the polynomial Casimirs of Π in the entropy basis, as ψ vectors: {}.",
+        casimirs.join(", ")
+    ));
+    let metric_doc = doc(format!(
+        "The {} independent rows of C_K θ = 0 (K(x)∇H(x) ≡ 0), each a sparse linear form (index \
+         into θ, coefficient) scaled to max |c| = 1.",
+        classical.metric_constraints.len()
+    ));
+    quote! {
+        #entropy_doc
+        pub const ENTROPY_CONSTRAINTS: &[::metriplectic_runtime::LinearForm] = #entropy;
+        #basis_doc
+        pub const CASIMIR_BASIS: &[::metriplectic_runtime::LinearForm] = #basis;
+        #metric_doc
+        pub const METRIC_CONSTRAINTS: &[::metriplectic_runtime::LinearForm] = #metric;
+        /// The classical (GENERIC) form: S a Casimir of Π, K degenerate along ∇H.
+        pub const CLASSICAL: ::metriplectic_runtime::Classical = ::metriplectic_runtime::Classical {
+            entropy_constraints: ENTROPY_CONSTRAINTS,
+            casimir_basis: CASIMIR_BASIS,
+            metric_constraints: METRIC_CONSTRAINTS,
+        };
     }
 }

@@ -177,6 +177,26 @@ fn certificate_docs(system: &System) -> Vec<String> {
             );
         }
     }
+    if let Some(classical) = &system.classical {
+        const SHOWN: usize = 8;
+        let mut casimirs: Vec<String> = classical
+            .casimirs
+            .iter()
+            .take(SHOWN)
+            .map(|c| format!("`{}`", c.display(names)))
+            .collect();
+        if classical.casimirs.len() > SHOWN {
+            casimirs.push(format!("… ({} in all)", classical.casimirs.len()));
+        }
+        docs.push(format!(
+            "* Classical (GENERIC) form (`CLASSICAL`): S is a Casimir of Π (Π∇S ≡ 0) and \
+             K∇H ≡ 0, so H is conserved and S produced. Casimirs of Π in the entropy \
+             basis: {}; {} independent constraints on ψ, {} on θ.",
+            casimirs.join(", "),
+            classical.entropy_constraints.len(),
+            classical.metric_constraints.len()
+        ));
+    }
     docs
 }
 
