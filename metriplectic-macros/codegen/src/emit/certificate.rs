@@ -106,15 +106,23 @@ fn certificate_consts(certificate: &CertificateModel, system: &System) -> TokenS
     let n = names.len();
     let metric_len = system.bases.metric_len;
     let targets = exponents(&certificate.targets);
-    let targets_doc = doc(format!(
-        "Target monomials: {}, graded lexicographic. The first {metric_len} (degree ≤ {}) are \
-         the metric basis, matched to θ; the coefficients of the others must cancel.",
-        monomials_text(certificate.targets.len(), certificate.target_degree),
-        system.bases.metric_degree
-    ));
+    let targets_doc = doc(if certificate.targets.len() == metric_len {
+        format!(
+            "Target monomials: the metric basis, {}, graded lexicographic; the blocks match θ \
+             on them.",
+            monomials_text(metric_len, system.bases.metric_degree)
+        )
+    } else {
+        format!(
+            "Target monomials: {}, graded lexicographic. The first {metric_len} (degree ≤ {}) \
+             are the metric basis, matched to θ; the coefficients of the others must cancel.",
+            monomials_text(certificate.targets.len(), certificate.target_degree),
+            system.bases.metric_degree
+        )
+    });
     let mut items = vec![quote! {
         #targets_doc
-        pub const REGION_TARGETS: &[&[u32]] = #targets;
+        const REGION_TARGETS: &[&[u32]] = #targets;
     }];
     let mut sides: Vec<Vec<Ident>> = Vec::new();
     for (side, what, blocks) in [
@@ -151,7 +159,7 @@ fn certificate_consts(certificate: &CertificateModel, system: &System) -> TokenS
             let value = gram_block(block);
             items.push(quote! {
                 #doc
-                pub const #ident: ::metriplectic_runtime::GramBlock = #value;
+                const #ident: ::metriplectic_runtime::GramBlock = #value;
             });
             idents.push(ident);
         }
@@ -171,7 +179,7 @@ fn certificate_consts(certificate: &CertificateModel, system: &System) -> TokenS
     ));
     items.push(quote! {
         #certificate_doc
-        pub const REGION_CERTIFICATE: ::metriplectic_runtime::RegionCertificate =
+        pub(in super::super) const REGION_CERTIFICATE: ::metriplectic_runtime::RegionCertificate =
             ::metriplectic_runtime::RegionCertificate {
                 region: #region,
                 mode: #mode,
@@ -277,13 +285,13 @@ fn classical_consts(classical: &ClassicalModel, system: &System) -> TokenStream 
     ));
     quote! {
         #entropy_doc
-        pub const ENTROPY_CONSTRAINTS: &[::metriplectic_runtime::LinearForm] = #entropy;
+        const ENTROPY_CONSTRAINTS: &[::metriplectic_runtime::LinearForm] = #entropy;
         #basis_doc
-        pub const CASIMIR_BASIS: &[::metriplectic_runtime::LinearForm] = #basis;
+        const CASIMIR_BASIS: &[::metriplectic_runtime::LinearForm] = #basis;
         #metric_doc
-        pub const METRIC_CONSTRAINTS: &[::metriplectic_runtime::LinearForm] = #metric;
+        const METRIC_CONSTRAINTS: &[::metriplectic_runtime::LinearForm] = #metric;
         /// The classical (GENERIC) form: S a Casimir of Π, K degenerate along ∇H.
-        pub const CLASSICAL: ::metriplectic_runtime::Classical = ::metriplectic_runtime::Classical {
+        pub(in super::super) const CLASSICAL: ::metriplectic_runtime::Classical = ::metriplectic_runtime::Classical {
             entropy_constraints: ENTROPY_CONSTRAINTS,
             casimir_basis: CASIMIR_BASIS,
             metric_constraints: METRIC_CONSTRAINTS,
