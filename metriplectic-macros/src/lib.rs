@@ -48,11 +48,62 @@ use proc_macro::TokenStream;
 /// * `entropy degree r;` (1 ≤ r) the entropy basis: all monomials of degree
 ///   1..=r (the constant has zero gradient, so it is left out).
 /// * `metric degree s;` (even) each entry of K spans the monomials of degree
-///   0..=s.
+///   0..=s (without a `region`, only the constant is certified: see below).
+/// * `region …;`, `certificate …;`, `relaxation order t;` optional: the
+///   region where a state-dependent metric is certified (below).
+/// * `classical;` optional: the classical (GENERIC) form (below).
 /// * `reference { entropy = expr; metric = [[…]]; }` optional: a known model
 ///   (for synthetic data and tests). It must fit the declared bases and the
 ///   metric must be symmetric; a constant metric must be positive
-///   semidefinite (checked exactly).
+///   semidefinite (checked exactly). A metric that depends on the state
+///   needs a `region` (below).
+///
+/// ## Regions: state-dependent metrics
+///
+/// The metric search certifies 0 ⪯ K(x) ⪯ ηI with sums of squares. On all of
+/// Rⁿ a matrix polynomial bounded on both sides is constant, so without a
+/// region the metric is constant, whatever `metric degree` says. A region
+/// R = {x : gₖ(x) ≥ 0} lets it depend on the state, certified by the matrix
+/// S-procedure:
+///
+/// ```ignore
+/// region ball(center = [0, 0], radius = 2);   // g = 4 − q² − p² ≥ 0
+/// // or a box, gⱼ = (uⱼ − xⱼ)(xⱼ − lⱼ) ≥ 0:
+/// // region box(q in [-2, 2], p in [-3, 1]);
+/// certificate on region;                      // optional
+/// relaxation order 1;                         // optional, 0 by default
+/// ```
+///
+/// * `region ball(center = [c₁, …, cₙ], radius = ρ);` ‖x − c‖ ≤ ρ: one
+///   centre coordinate per state variable (`center` may be left out for
+///   the origin), ρ > 0. `region box(x₁ in [l₁, u₁], …);` lⱼ ≤ xⱼ ≤ uⱼ:
+///   every state variable exactly once, in any order, lⱼ < uⱼ. The numbers
+///   are constant expressions: numbers and constants, no state variable.
+/// * `certificate global lower bound;` (the default): K(x) ⪰ 0 for every x
+///   (a sum of squares Σ₀ with a basis of degree ≤ s/2) and ηI − K(x) =
+///   Σ₁ + Σₖ gₖ Σ₁ₖ ⪰ 0 on R, so the free energy never decreases anywhere.
+///   `certificate on region;`: also K(x) = Σ₀ + Σₖ gₖ Σ₀ₖ, so K ⪰ 0 and
+///   dE/dt ≥ 0 are certified **only on R** (the generated docs say so).
+/// * `relaxation order t;` raises the degree of every block except the
+///   global lower bound's by t (more freedom, bigger programs); coefficients
+///   above the metric degree must then cancel.
+///
+/// `certificate` or `relaxation` without a `region` is an error; with a
+/// region the metric degree must still be even.
+///
+/// ## The classical form
+///
+/// `classical;` declares the GENERIC structure: S is a Casimir of Π
+/// (Π∇S ≡ 0) and K∇H ≡ 0, so H is conserved and S produced. The macro
+/// derives both identities exactly as linear constraints on the entropy
+/// and metric coefficients, and a basis of Π's polynomial Casimirs in the
+/// entropy basis (for so(3): |p|², |p|⁴, …), listed in the generated docs.
+/// It is an error if Π has no Casimir up to the entropy degree (a canonical
+/// Π has none), or if no non-zero metric of the basis satisfies K∇H ≡ 0
+/// (without a region K is constant and usually must vanish: declare a
+/// region and a metric degree of at least 2·deg ∇H, where
+/// K(x) = c(|∇H|²I − ∇H∇Hᵀ) qualifies). A reference model must satisfy both
+/// identities, checked exactly.
 ///
 /// # Expressions
 ///
@@ -85,6 +136,11 @@ use proc_macro::TokenStream;
 ///   reduced), the reference coefficients, and methods forwarding to the
 ///   module. Everything else (features, Jacobian, metric, the rows of the
 ///   searches) is the trait's provided code, shared by all systems.
+/// * With a `region`, `REGION_CERTIFICATE`; with `classical;`, `CLASSICAL`.
+///   Their tables are named constants with docs in the module
+///   `__metriplectic_<Name>::tables` (`REGION_TARGETS`, one `GramBlock` per
+///   block: `LOWER_SOS`, `LOWER_G1`, …, `UPPER_SOS`, `UPPER_G1`, …;
+///   `ENTROPY_CONSTRAINTS`, `CASIMIR_BASIS`, `METRIC_CONSTRAINTS`).
 ///
 /// # Names and hygiene
 ///
@@ -108,7 +164,8 @@ use proc_macro::TokenStream;
 /// tokens concerned (independent sections, constants and checks are checked
 /// independently; what depends on a broken part is skipped, not reported
 /// again). A constant reference metric is checked to be positive
-/// semidefinite, exactly. With errors, the struct and a stand-in trait impl
+/// semidefinite, exactly; a non-constant one needs a region. Regions,
+/// certificate options and the classical form are checked the same way. With errors, the struct and a stand-in trait impl
 /// are still emitted, so later uses of the type add no further errors.
 #[proc_macro]
 pub fn metriplectic(input: TokenStream) -> TokenStream {
