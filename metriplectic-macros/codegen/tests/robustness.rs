@@ -639,7 +639,7 @@ fn valid_system() -> impl Strategy<Value = String> {
                     };
                     let region = match region {
                         None if classical || (reference.is_some() && s > 0) => {
-                            Some(format!("region ball(radius = 2);\n"))
+                            Some("region ball(radius = 2);\n".to_string())
                         }
                         region => region,
                     };

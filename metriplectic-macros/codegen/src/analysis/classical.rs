@@ -565,9 +565,9 @@ mod tests {
         let m = system.bases.metric_len;
         let mut theta = Row::new();
         let mut pair = 0;
-        for j in 0..2 {
-            for k in j..2 {
-                let entry = crate::analysis::scope::tests::poly(entries[j][k], &names).unwrap();
+        for (j, row) in entries.iter().enumerate() {
+            for text in &row[j..] {
+                let entry = crate::analysis::scope::tests::poly(text, &names).unwrap();
                 for (a, e) in system.bases.monomials[..m].iter().enumerate() {
                     let c = entry.coefficient(e);
                     if !c.is_zero() {
