@@ -272,6 +272,46 @@ pub(super) fn side_step_limit(segments: &[Segment], lambda: &[f64], d: &DVector<
     alpha
 }
 
+/// Largest α with s + α·ds in every side cone, computed on the unscaled
+/// slacks; `None` if a PSD slack is not numerically positive definite (the
+/// caller then uses the scaled form). Near a face of a PSD cone the
+/// Nesterov–Todd scaling W is so ill-conditioned that mapping a scaled
+/// direction back (ds = WᵀΔs̃) loses every digit; the slack direction is
+/// then taken from the linear residual equation instead, and its step
+/// limit has to be found here.
+pub(super) fn slack_step_limit(
+    segments: &[Segment],
+    s: &DVector<f64>,
+    ds: &DVector<f64>,
+) -> Option<f64> {
+    let mut alpha = f64::INFINITY;
+    for segment in segments {
+        let range = segment.range();
+        match segment.psd {
+            Some(n) => {
+                let slack = smat(n, &s.as_slice()[range.clone()]);
+                let factor = Cholesky::new(&slack)?;
+                let direction = smat(n, &ds.as_slice()[range]);
+                let left = factor.l().solve_lower_triangular(&direction)?;
+                let m = factor.l().solve_lower_triangular(&left.transpose())?;
+                let m = (&m + m.transpose()) * 0.5;
+                let smallest = symmetric_eigenvalues(&m)?.first().copied()?;
+                if smallest < 0.0 {
+                    alpha = alpha.min(-1.0 / smallest);
+                }
+            }
+            None => {
+                for i in range {
+                    if ds[i] < 0.0 {
+                        alpha = alpha.min(-s[i] / ds[i]);
+                    }
+                }
+            }
+        }
+    }
+    Some(alpha)
+}
+
 /// Largest α with λ + α d in the cone, for λ = diag(λ) in svec form: the
 /// smallest eigenvalue of Λ^{-1/2} D Λ^{-1/2}.
 pub(super) fn psd_step_limit(lambda: &[f64], d: &[f64]) -> f64 {

@@ -9,7 +9,7 @@ use nalgebra::DVector;
 
 use super::cones::{
     cone_identity, jordan_divide, jordan_product, shift_into_cones, shift_orthant, side_step_limit,
-    SideScaling,
+    slack_step_limit, SideScaling,
 };
 use super::newton::{Kkt, Newton};
 use super::Reduced;
@@ -279,6 +279,9 @@ struct Target {
 /// A direction in (y, e, s, z), with the scaled slack and multiplier
 /// directions W⁻ᵀ ds and W dz the step length needs.
 struct Direction {
+    /// The side-cone slacks' direction, from the residual equation
+    /// G dy + ds = −r_z (see [`slack_step_limit`]).
+    sc: DVector<f64>,
     y: DVector<f64>,
     e: DVector<f64>,
     z1: DVector<f64>,
@@ -305,6 +308,8 @@ struct Step<'a> {
     w2: DVector<f64>,
     /// λ of the side cones (diagonal on PSD blocks).
     lambda_c: DVector<f64>,
+    /// The side-cone slacks at the current point.
+    sc: DVector<f64>,
 }
 
 impl<'a> Step<'a> {
@@ -321,6 +326,7 @@ impl<'a> Step<'a> {
             w1: x.s1.component_div(&x.z1).map(f64::sqrt),
             w2: x.s2.component_div(&x.z2).map(f64::sqrt),
             lambda_c: DVector::from_column_slice(&scaling.lambda),
+            sc: x.sc.clone(),
         })
     }
 
@@ -370,7 +376,12 @@ impl<'a> Step<'a> {
         let z1_scaled = self.w1.component_mul(&z1);
         let z2_scaled = self.w2.component_mul(&z2);
         let zc_scaled = self.scaling.apply_w(segments, &zc);
+        let mut sc = -&residuals.rzc;
+        if self.problem.g.nrows() > 0 {
+            sc -= &self.problem.g * &y;
+        }
         Direction {
+            sc,
             s1_scaled: &xi1 - &z1_scaled,
             s2_scaled: &xi2 - &z2_scaled,
             sc_scaled: &xic - &zc_scaled,
@@ -400,20 +411,24 @@ impl<'a> Step<'a> {
                 }
             }
         }
+        let segments = &self.problem.segments;
         let lambda = self.lambda_c.as_slice();
-        for v in [&d.sc_scaled, &d.zc_scaled] {
-            alpha = alpha.min(side_step_limit(&self.problem.segments, lambda, v));
-        }
+        let slack_limit = slack_step_limit(segments, &self.sc, &d.sc)
+            .unwrap_or_else(|| side_step_limit(segments, lambda, &d.sc_scaled));
+        alpha = alpha
+            .min(slack_limit)
+            .min(side_step_limit(segments, lambda, &d.zc_scaled));
         alpha
     }
 
-    /// x ← x + α d, the slacks mapped back from the scaled space (ds = Wᵀ Δs̃).
+    /// x ← x + α d; the L1 slacks mapped back from the scaled space
+    /// (ds = w∘Δs̃, diagonal and exact), the side-cone slacks along `d.sc`.
     fn update(&self, x: &mut Point, d: &Direction, alpha: f64) {
         x.y += &d.y * alpha;
         x.e += &d.e * alpha;
         x.s1 += self.w1.component_mul(&d.s1_scaled) * alpha;
         x.s2 += self.w2.component_mul(&d.s2_scaled) * alpha;
-        x.sc += self.scaling.apply_wt(&self.problem.segments, &d.sc_scaled) * alpha;
+        x.sc += &d.sc * alpha;
         x.z1 += &d.z1 * alpha;
         x.z2 += &d.z2 * alpha;
         x.zc += &d.zc * alpha;

@@ -20,7 +20,18 @@ pub(super) struct Kkt {
     pub zc: DVector<f64>,
 }
 
+/// Most iterative-refinement steps per solve.
+const MAX_REFINEMENT: usize = 8;
+
 impl Kkt {
+    /// The largest |entry|.
+    fn amax(&self) -> f64 {
+        [&self.y, &self.e, &self.z1, &self.z2, &self.zc]
+            .iter()
+            .flat_map(|v| v.iter())
+            .fold(0.0_f64, |m, v| m.max(v.abs()))
+    }
+
     fn plus(&self, other: &Kkt) -> Kkt {
         Kkt {
             y: &self.y + &other.y,
@@ -49,7 +60,7 @@ pub(super) struct Newton<'a> {
     /// z/s of the two L1 orthants.
     d1: DVector<f64>,
     d2: DVector<f64>,
-    schur: Cholesky,
+    schur: ScaledCholesky,
 }
 
 impl<'a> Newton<'a> {
@@ -72,13 +83,29 @@ impl<'a> Newton<'a> {
     }
 
     /// Solves [0 Gᵀ; G −WᵀW][dx; dz] = [bx; bz] for x = (y, e), z = (z₁, z₂, z_c),
-    /// with two steps of iterative refinement on the unreduced system (the
-    /// reduction squares the condition number near the optimum).
+    /// with iterative refinement on the unreduced system (the reduction
+    /// squares the condition number near the optimum): at least two steps,
+    /// and more while each still halves the residual, up to
+    /// `MAX_REFINEMENT` — near a face of the PSD cones (a rank-deficient
+    /// Gram matrix at the optimum) two steps can leave the direction
+    /// inaccurate enough to stall the method.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
         let mut solution = self.solve_reduced(rhs);
-        for _ in 0..2 {
-            let residual = rhs.minus(&self.apply(&solution));
-            solution = solution.plus(&self.solve_reduced(&residual));
+        let mut residual = rhs.minus(&self.apply(&solution));
+        let mut size = residual.amax();
+        for step in 0..MAX_REFINEMENT {
+            let candidate = solution.plus(&self.solve_reduced(&residual));
+            let next = rhs.minus(&self.apply(&candidate));
+            let next_size = next.amax();
+            if step >= 2 && !(next_size < 0.5 * size) {
+                break;
+            }
+            if next_size.is_finite() && next_size <= size || step < 2 {
+                (solution, residual, size) = (candidate, next, next_size);
+            }
+            if size == 0.0 {
+                break;
+            }
         }
         solution
     }
@@ -170,11 +197,46 @@ fn schur_complement(
     (&schur + schur.transpose()) * 0.5
 }
 
-/// Cholesky of the Schur complement; on breakdown retried with a small
-/// diagonal shift (a rank-deficient regression with an unconstrained direction).
-fn factorise(schur: DMatrix<f64>) -> Option<Cholesky> {
+/// A Cholesky factorisation of D^{-1/2} M D^{-1/2}, D = diag(M): the
+/// symmetric Jacobi scaling. Near a face of the PSD cones the Schur
+/// complement's diagonal spans many orders of magnitude; scaled, its
+/// factor is accurate enough for iterative refinement to converge.
+struct ScaledCholesky {
+    factor: Cholesky,
+    /// D^{-1/2}.
+    scale: DVector<f64>,
+}
+
+impl ScaledCholesky {
+    fn solve(&self, b: &DVector<f64>) -> DVector<f64> {
+        let scaled = b.component_mul(&self.scale);
+        self.factor.solve(&scaled).component_mul(&self.scale)
+    }
+}
+
+/// The Jacobi-scaled Cholesky of the Schur complement; on breakdown
+/// retried with a small diagonal shift (a rank-deficient regression with
+/// an unconstrained direction).
+fn factorise(mut schur: DMatrix<f64>) -> Option<ScaledCholesky> {
     let k = schur.nrows();
-    let scale = schur.diagonal().amax().max(f64::MIN_POSITIVE);
+    let largest = schur.diagonal().amax().max(f64::MIN_POSITIVE);
+    // A zero diagonal entry (a column nothing constrains) is scaled as the
+    // largest would be; the shift below then handles it.
+    let scale = DVector::from_iterator(
+        k,
+        schur.diagonal().iter().map(|&d| {
+            if d > 1e-300 {
+                1.0 / d.sqrt()
+            } else {
+                1.0 / largest.sqrt()
+            }
+        }),
+    );
+    for j in 0..k {
+        for i in 0..k {
+            schur[(i, j)] *= scale[i] * scale[j];
+        }
+    }
     let mut shift = 0.0;
     for _ in 0..4 {
         let mut shifted = schur.clone();
@@ -182,13 +244,9 @@ fn factorise(schur: DMatrix<f64>) -> Option<Cholesky> {
             shifted[(i, i)] += shift;
         }
         if let Some(factor) = Cholesky::new(&shifted) {
-            return Some(factor);
+            return Some(ScaledCholesky { factor, scale });
         }
-        shift = if shift == 0.0 {
-            1e-13 * scale
-        } else {
-            shift * 1e3
-        };
+        shift = if shift == 0.0 { 1e-13 } else { shift * 1e3 };
     }
     None
 }
