@@ -1,7 +1,8 @@
 //! A 6-state system with entropy degree 8 (3002 entropy monomials) and metric
 //! degree 4 (210 metric monomials per entry): the generated code must stay
 //! correct at this size. It also serves as the compile-time measurement of the
-//! macro (`touch tests/large_system.rs && time cargo build --tests`).
+//! macro (`touch tests/large_system.rs && time cargo build --tests`),
+//! including the tables of a region certificate over 6 states.
 
 use metriplectic_runtime::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -24,6 +25,8 @@ metriplectic! {
         + c * ((q2 - q1)^2 + (q3 - q2)^2);
     entropy degree 8;
     metric degree 4;
+    // The reference metric depends on p3: its certificate needs a region.
+    region ball(radius = 2);
     reference {
         entropy = -(p1^2 + p2^2 + p3^2 + q1^2 + q2^2 + q3^2 - 1)^4;
         metric = [

@@ -113,7 +113,7 @@ pub use identify::{
 };
 pub use io::WriteMode;
 pub use metriplectic_macros::metriplectic;
-pub use model::{Model, Score};
+pub use model::{CertificateCheck, GramCertificate, GramMatrix, Model, Score};
 #[cfg(feature = "plot")]
 #[cfg_attr(docsrs, doc(cfg(feature = "plot")))]
 pub use plot::{

@@ -53,6 +53,35 @@ pub enum Region {
     },
 }
 
+impl Region {
+    /// Whether `x` (of the region's dimension) lies in the region.
+    pub fn contains(&self, x: &[f64]) -> bool {
+        match *self {
+            Self::Ball { center, radius } => {
+                let distance: f64 = x.iter().zip(center).map(|(a, c)| (a - c) * (a - c)).sum();
+                x.len() == center.len() && distance <= radius * radius
+            }
+            Self::Box { lower, upper } => {
+                x.len() == lower.len()
+                    && x.iter()
+                        .zip(lower.iter().zip(upper))
+                        .all(|(v, (l, u))| (*l..=*u).contains(v))
+            }
+        }
+    }
+
+    /// The smallest box (lower corner, upper corner) holding the region.
+    pub fn bounding_box(&self) -> (Vec<f64>, Vec<f64>) {
+        match *self {
+            Self::Ball { center, radius } => (
+                center.iter().map(|c| c - radius).collect(),
+                center.iter().map(|c| c + radius).collect(),
+            ),
+            Self::Box { lower, upper } => (lower.to_vec(), upper.to_vec()),
+        }
+    }
+}
+
 /// Which bounds of 0 ⪯ K(x) ⪯ ηI a region certificate proves where.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum CertificateMode {

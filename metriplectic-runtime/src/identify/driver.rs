@@ -304,7 +304,9 @@ fn iterate_on<S: MetriplecticSystem>(
 
     let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
     let metric = decide(model, cost_before, search.report, |m| {
-        m.set_metric_coefficients(search.coefficients)
+        *m = Model::new(m.entropy_coefficients().to_vec(), search.coefficients)?
+            .with_certificate(search.certificate)?;
+        Ok(())
     });
     let search = entropy_search::<S>(batch, model.metric_coefficients(), options)?;
     let entropy = decide(model, metric.cost_after, search.report, |m| {
@@ -318,7 +320,7 @@ fn iterate_on<S: MetriplecticSystem>(
             let radius = state.radius;
             let step = joint_step::<S>(batch, model, radius, options)?;
             let record = decide(model, current, step.report, |m| {
-                *m = Model::new(step.entropy, step.metric)?;
+                *m = Model::new(step.entropy, step.metric)?.with_certificate(step.certificate)?;
                 Ok(())
             });
             let ratio = match (record.outcome, step.predicted) {

@@ -84,15 +84,17 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     model: &Model<S>,
     config: &IdentifyConfig,
 ) -> Result<Vec<IdentifyWarning>> {
+    // Metric coefficients the certificate leaves free: all of them with a
+    // region, those with a non-empty matching list with the global tables.
     let tables = config.search.sos.tables::<S>();
+    let basis = S::METRIC_EXPONENTS.len();
     let free: Vec<usize> = (0..S::DIM * (S::DIM + 1) / 2)
         .flat_map(|pair| {
-            let basis = S::METRIC_EXPONENTS.len();
             tables
                 .matching
                 .iter()
                 .enumerate()
-                .filter(|(_, pairs)| !pairs.is_empty())
+                .filter(|(_, pairs)| S::REGION_CERTIFICATE.is_some() || !pairs.is_empty())
                 .map(move |(alpha, _)| pair * basis + alpha)
         })
         .collect();

@@ -23,11 +23,12 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::gram::Layout;
 use crate::error::{Error, Result};
 use crate::solve::linalg::symmetric_eigen;
 use crate::solve::svec::{svec_diagonal, svec_index, svec_len, SQRT_2};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression, SolverSettings};
-use crate::system::{metric_pair_index, MetriplecticSystem};
+use crate::system::{metric_pair_index, CertificateMode, MetriplecticSystem, RegionCertificate};
 
 /// Relative tolerance of a constant block's smallest eigenvalue: rounding
 /// in a metric search's Gram matrix is ~1e-16 of its scale.
@@ -39,8 +40,15 @@ const CERTIFICATE_TOLERANCE: f64 = 1e-8;
 const MAX_GRAM_SIDE: usize = 64;
 
 /// Checks that the metric with coefficients `theta` is positive
-/// semidefinite for every state; `what` names it in errors.
+/// semidefinite for every state — or, for a system whose region
+/// certificate holds only on its region ([`CertificateMode::OnRegion`]),
+/// for every state in the region; `what` names it in errors.
 pub(crate) fn check_metric<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<()> {
+    if let Some(certificate) = S::REGION_CERTIFICATE {
+        if certificate.mode == CertificateMode::OnRegion {
+            return check_on_region::<S>(what, theta, &certificate);
+        }
+    }
     for block in blocks::<S>(theta) {
         let scale = block_scale::<S>(theta, &block);
         if is_constant::<S>(theta, &block) {
@@ -307,6 +315,155 @@ fn witness<S: MetriplecticSystem>(
         what: what.to_owned(),
         eigenvalue,
         direction: embed(n, block, &direction),
+        state: Some(x),
+    })
+}
+
+/// Checks that K(x) ⪰ 0 on the region of `certificate` by finding Gram
+/// matrices of its lower blocks (the S-procedure), or says where it fails.
+fn check_on_region<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    certificate: &RegionCertificate,
+) -> Result<()> {
+    let scale = theta.iter().fold(0.0_f64, |m, c| m.max(c.abs()));
+    if scale == 0.0 {
+        return Ok(());
+    }
+    let layout = Layout::of::<S>(S::SOS_REDUCED);
+    layout.check::<S>()?;
+    match certify_on_region::<S>(theta, &layout, scale) {
+        Ok(()) => Ok(()),
+        Err(reason) => Err(
+            region_witness::<S>(what, theta, certificate, scale).unwrap_or(
+                Error::MetricNotCertified {
+                    what: what.to_owned(),
+                    reason: format!("{reason}; K(x) ⪰ 0 is required on the region only"),
+                },
+            ),
+        ),
+    }
+}
+
+/// min |s| s.t. K(θ) = Σ_lower g·Zᵀ Q Z on the targets, Q + s·I ⪰ 0 for
+/// every lower block: its optimum is 0 exactly when the lower certificate
+/// exists.
+fn certify_on_region<S: MetriplecticSystem>(
+    theta: &[f64],
+    layout: &Layout,
+    scale: f64,
+) -> std::result::Result<(), String> {
+    let n = S::DIM;
+    let basis = S::METRIC_EXPONENTS.len();
+    let sizes: Vec<usize> = layout.lower.iter().map(|b| b.size(n)).collect();
+    if let Some(&size) = sizes.iter().find(|&&size| size > MAX_GRAM_SIDE) {
+        return Err(format!(
+            "its region certificate needs a {size}×{size} Gram matrix, more than the \
+             {MAX_GRAM_SIDE} supported"
+        ));
+    }
+    let mut offsets = Vec::with_capacity(sizes.len());
+    let mut next = 1;
+    for &size in &sizes {
+        offsets.push(next);
+        next += svec_len(size);
+    }
+    let objective = Regression {
+        width: 1,
+        rows: vec![1.0],
+        target: vec![0.0],
+    };
+    let mut problem = L1Problem::new(objective, next - 1);
+    let mut entries = Vec::new();
+    let mut rhs = Vec::new();
+    for j in 0..n {
+        for k in j..n {
+            let pair = metric_pair_index(n, j, k);
+            for alpha in 0..layout.targets {
+                let row = rhs.len();
+                rhs.push(if alpha < basis {
+                    theta[pair * basis + alpha]
+                } else {
+                    0.0
+                });
+                for (block, &offset) in layout.lower.iter().zip(&offsets) {
+                    let m = block.basis.len();
+                    for (beta, gamma, c) in block.matching.entries(alpha) {
+                        let (a, b) = (j * m + beta, k * m + gamma);
+                        let weight = if a == b { c } else { c / SQRT_2 };
+                        entries.push((row, offset + svec_index(a, b), weight));
+                    }
+                }
+            }
+        }
+    }
+    let mut built = problem
+        .constrain(Cone::Zero(rhs.len()), entries, rhs)
+        .map(|_| ());
+    for (&size, &offset) in sizes.iter().zip(&offsets) {
+        built = built.and_then(|()| {
+            let svec_size = svec_len(size);
+            let mut psd: Vec<(usize, usize, f64)> =
+                (0..svec_size).map(|i| (i, offset + i, -1.0)).collect();
+            psd.extend((0..size).map(|p| (svec_diagonal(p), 0, -1.0)));
+            problem
+                .constrain(Cone::Psd(size), psd, vec![0.0; svec_size])
+                .map(|_| ())
+        });
+    }
+    if let Err(error) = built {
+        return Err(format!(
+            "the region certificate program could not be built: {error}"
+        ));
+    }
+    let solution = solve_l1(&problem, &SolverSettings::default())
+        .map_err(|error| format!("the region certificate program failed: {error}"))?;
+    let s = solution.coefficients()[0];
+    if solution.status.is_usable() && s <= CERTIFICATE_TOLERANCE * scale {
+        Ok(())
+    } else {
+        Err(format!(
+            "the best S-procedure certificate on the region needs a shift s = {s:e} to be \
+             positive semidefinite (solver status {})",
+            solution.status
+        ))
+    }
+}
+
+/// A state in the region where K(x) has a negative eigenvalue, as the
+/// error to report; `None` if none was found.
+fn region_witness<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    certificate: &RegionCertificate,
+    scale: f64,
+) -> Option<Error> {
+    let n = S::DIM;
+    let (low, high) = certificate.region.bounding_box();
+    let mut rng = ChaCha8Rng::seed_from_u64(0x5eed);
+    let mut metric = vec![0.0; n * n];
+    let mut worst: Option<(f64, Vec<f64>, Vec<f64>)> = None;
+    for _ in 0..2000 {
+        let x: Vec<f64> = low
+            .iter()
+            .zip(&high)
+            .map(|(l, h)| l + (h - l) * rng.random::<f64>())
+            .collect();
+        if !certificate.region.contains(&x) {
+            continue;
+        }
+        S::metric_value(&x, theta, &mut metric);
+        let (eigenvalue, direction) = smallest_eigen(DMatrix::from_row_slice(n, n, &metric));
+        if eigenvalue < -EIGENVALUE_TOLERANCE * scale
+            && worst.as_ref().is_none_or(|(w, _, _)| eigenvalue < *w)
+        {
+            worst = Some((eigenvalue, direction, x));
+        }
+    }
+    worst.map(|(eigenvalue, direction, x)| Error::MetricNotPositive {
+        what: what.to_owned(),
+        eigenvalue,
+        direction,
         state: Some(x),
     })
 }

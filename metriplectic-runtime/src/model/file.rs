@@ -9,10 +9,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::Model;
+use super::{GramCertificate, Model};
 use crate::error::{Error, Result};
 use crate::io::{read_capped, write_file, WriteMode};
-use crate::system::MetriplecticSystem;
+use crate::system::{CertificateMode, MetriplecticSystem, Region};
 
 /// Format tag written into every model file.
 const FORMAT: &str = "metriplectic-model";
@@ -30,8 +30,56 @@ struct ModelFile {
     metric_degree: u32,
     entropy_exponents: Vec<Vec<u32>>,
     metric_exponents: Vec<Vec<u32>>,
+    /// The region of the system's metric certificate, if it declares one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    region: Option<RegionFile>,
+    /// Which bounds the certificate proves where.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    certificate_mode: Option<CertificateMode>,
+    /// Where dE/dt ≥ 0 is certified, in words, for readers of the file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    free_energy_certified: Option<String>,
     entropy: Vec<f64>,
     metric: Vec<f64>,
+    /// The Gram matrices proving the metric's bounds, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    certificate: Option<GramCertificate>,
+}
+
+/// A [`Region`] as stored in a model file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum RegionFile {
+    Ball { center: Vec<f64>, radius: f64 },
+    Box { lower: Vec<f64>, upper: Vec<f64> },
+}
+
+impl From<Region> for RegionFile {
+    fn from(region: Region) -> Self {
+        match region {
+            Region::Ball { center, radius } => Self::Ball {
+                center: center.to_vec(),
+                radius,
+            },
+            Region::Box { lower, upper } => Self::Box {
+                lower: lower.to_vec(),
+                upper: upper.to_vec(),
+            },
+        }
+    }
+}
+
+/// Where a system's certificate proves dE/dt ≥ 0, in words.
+fn free_energy_certified<S: MetriplecticSystem>() -> Option<String> {
+    S::REGION_CERTIFICATE.map(|certificate| {
+        match certificate.mode {
+            CertificateMode::GlobalLowerBound => "for every state (K(x) ⪰ 0 everywhere)",
+            CertificateMode::OnRegion => {
+                "only for states in the region (K(x) ⪰ 0 is certified on the region only)"
+            }
+        }
+        .to_owned()
+    })
 }
 
 impl ModelFile {
@@ -54,8 +102,12 @@ impl ModelFile {
             metric_degree: S::METRIC_DEGREE,
             entropy_exponents: to_owned_table(S::ENTROPY_EXPONENTS),
             metric_exponents: to_owned_table(S::METRIC_EXPONENTS),
+            region: S::REGION_CERTIFICATE.map(|c| c.region.into()),
+            certificate_mode: S::REGION_CERTIFICATE.map(|c| c.mode),
+            free_energy_certified: free_energy_certified::<S>(),
             entropy: Vec::new(),
             metric: Vec::new(),
+            certificate: None,
         }
     }
 }
@@ -65,9 +117,19 @@ impl ModelFile {
 /// edits and reformatting fit while a corrupt or hostile file cannot make
 /// the reader allocate without bound.
 fn model_file_limit<S: MetriplecticSystem>() -> u64 {
+    // The certificate's Gram matrices: the full global tables are the
+    // largest a system without a region can have.
+    let layout = super::Layout::of::<S>(S::SOS_FULL);
+    let gram: usize = layout
+        .lower
+        .iter()
+        .chain(&layout.upper)
+        .map(|block| block.size(S::DIM).pow(2))
+        .sum();
     let numbers = S::entropy_coefficient_count()
         + S::metric_coefficient_count()
-        + (S::ENTROPY_EXPONENTS.len() + S::METRIC_EXPONENTS.len() + 1) * S::DIM;
+        + gram
+        + (S::ENTROPY_EXPONENTS.len() + S::METRIC_EXPONENTS.len() + 3) * S::DIM;
     (1 << 20) + 256 * numbers as u64
 }
 
@@ -89,6 +151,7 @@ impl<S: MetriplecticSystem> Model<S> {
         let file = ModelFile {
             entropy: self.entropy_coefficients().to_vec(),
             metric: self.metric_coefficients().to_vec(),
+            certificate: self.certificate().cloned(),
             ..ModelFile::header_of::<S>()
         };
         serde_json::to_string_pretty(&file).map_err(|source| Error::Json {
@@ -133,6 +196,7 @@ impl<S: MetriplecticSystem> Model<S> {
         let found_header = ModelFile {
             entropy: Vec::new(),
             metric: Vec::new(),
+            certificate: None,
             ..file.clone()
         };
         if found_header != expected {
@@ -142,14 +206,27 @@ impl<S: MetriplecticSystem> Model<S> {
                 && file.entropy_degree == expected.entropy_degree
                 && file.metric_degree == expected.metric_degree
             {
-                found.push_str(" with different monomial tables");
+                found.push_str(
+                    if file.region != expected.region
+                        || file.certificate_mode != expected.certificate_mode
+                        || file.free_energy_certified != expected.free_energy_certified
+                    {
+                        " with a different certificate region or mode"
+                    } else {
+                        " with different monomial tables"
+                    },
+                );
             }
             return Err(Error::WrongSystem {
                 expected: expected.describe(),
                 found,
             });
         }
-        Self::new(file.entropy, file.metric)
+        let model = Self::new(file.entropy, file.metric)?;
+        match file.certificate {
+            Some(certificate) => model.with_certificate(certificate),
+            None => Ok(model),
+        }
     }
 
     /// Writes the model to `path` as JSON. With [`WriteMode::CreateNew`]

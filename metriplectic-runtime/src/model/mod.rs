@@ -10,9 +10,13 @@ use std::marker::PhantomData;
 mod certificate;
 mod display;
 mod file;
+mod gram;
 mod score;
 
+pub use gram::{CertificateCheck, GramCertificate, GramMatrix};
 pub use score::Score;
+
+pub(crate) use gram::{theta_from_gram, Layout};
 
 pub(crate) use certificate::check_metric;
 
@@ -30,6 +34,8 @@ use crate::system::{with_scratch, MetriplecticSystem};
 pub struct Model<S: MetriplecticSystem> {
     entropy: Vec<f64>,
     metric: Vec<f64>,
+    /// The Gram matrices that prove the metric's bounds, when known.
+    certificate: Option<GramCertificate>,
     system: PhantomData<S>,
 }
 
@@ -39,11 +45,14 @@ impl<S: MetriplecticSystem> Clone for Model<S> {
         Self {
             entropy: self.entropy.clone(),
             metric: self.metric.clone(),
+            certificate: self.certificate.clone(),
             system: PhantomData,
         }
     }
 }
 
+/// Models are equal when their coefficients are: the certificate is
+/// evidence about the metric, not part of it.
 impl<S: MetriplecticSystem> PartialEq for Model<S> {
     fn eq(&self, other: &Self) -> bool {
         self.entropy == other.entropy && self.metric == other.metric
@@ -97,8 +106,29 @@ impl<S: MetriplecticSystem> Model<S> {
         Ok(Self {
             entropy,
             metric,
+            certificate: None,
             system: PhantomData,
         })
+    }
+
+    /// The Gram matrices that prove this model's metric bounds: kept from
+    /// the metric search or joint step that produced the metric, and in
+    /// model files; `None` (the default) for a model built from
+    /// coefficients. Re-check it with [`GramCertificate::check`].
+    pub fn certificate(&self) -> Option<&GramCertificate> {
+        self.certificate.as_ref()
+    }
+
+    /// The model with `certificate` kept as the proof of its metric bounds.
+    ///
+    /// Errors if the certificate's Gram matrices do not fit the system's
+    /// certificate blocks. Whether they prove the bounds is not decided
+    /// here (the model's metric is certified independently when it is
+    /// built): see [`GramCertificate::check`].
+    pub fn with_certificate(mut self, certificate: GramCertificate) -> Result<Self> {
+        certificate.check::<S>(&self.metric)?;
+        self.certificate = Some(certificate);
+        Ok(self)
     }
 
     /// The reference model declared in the system's `reference { … }` section.
@@ -136,6 +166,7 @@ impl<S: MetriplecticSystem> Model<S> {
     pub fn set_metric_coefficients(&mut self, metric: Vec<f64>) -> Result<()> {
         check_metric_coefficients::<S>("metric coefficients", &metric)?;
         self.metric = metric;
+        self.certificate = None;
         Ok(())
     }
 

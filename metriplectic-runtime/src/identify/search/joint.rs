@@ -1,13 +1,13 @@
 //! A joint, linearised step in both coefficient blocks (ψ, θ) at once: a
 //! Gauss–Newton step for the L1 cost, in a trust region.
 
-use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
+use super::sos::{add_sos_constraints, layout, SosConstraints};
 use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::cost::{model_cost, Cost};
-use crate::model::Model;
+use crate::model::{theta_from_gram, GramCertificate, Model};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
 
@@ -22,9 +22,11 @@ const STEP_PENALTY: f64 = 1e-6;
 pub struct JointStep {
     /// Candidate entropy coefficients ψ + d (clipped to [−η, η]).
     pub entropy: Vec<f64>,
-    /// Candidate metric coefficients θ′, recomputed from the Gram matrix Q₁
-    /// as in the metric search (so K ⪰ 0 holds exactly).
+    /// Candidate metric coefficients θ′, recomputed from the lower Gram
+    /// matrices as in the metric search (so K ⪰ 0 holds exactly).
     pub metric: Vec<f64>,
+    /// The Gram matrices proving the candidate metric's bounds.
+    pub certificate: GramCertificate,
     /// The linearised cost at the solver's point (what the step predicts);
     /// `None` if the solver returned non-finite values.
     pub predicted: Option<Cost>,
@@ -97,8 +99,7 @@ pub fn joint_step<S: MetriplecticSystem>(
             format!("{radius} is not a finite positive number"),
         ));
     }
-    let tables = options.sos.tables::<S>();
-    check_tables::<S>(&tables)?;
+    let layout = layout::<S>(options.sos)?;
     let psi = model.entropy_coefficients();
     let theta = model.metric_coefficients();
     let (t_len, p) = (theta.len(), psi.len());
@@ -109,9 +110,8 @@ pub fn joint_step<S: MetriplecticSystem>(
     let regression =
         metric_regression::<S>(data, psi)?.with_columns_of(&entropy_regression::<S>(data, theta)?);
     let penalised = regression.stacked(&step_penalty(&regression, theta));
-    let gram_size = S::DIM * tables.exponents.len();
-    let mut problem = L1Problem::new(penalised, SosConstraints::variables(gram_size));
-    let sos = add_sos_constraints::<S>(&mut problem, &tables, options.eta, 0, t_len + p)?;
+    let mut problem = L1Problem::new(penalised, SosConstraints::variables::<S>(&layout));
+    let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, t_len + p)?;
     // The trust region in units of each coefficient's effect on the data.
     let widths = trust_widths(&regression, theta, psi);
     let mut entries = Vec::with_capacity(2 * (t_len + p));
@@ -142,7 +142,8 @@ pub fn joint_step<S: MetriplecticSystem>(
         .iter()
         .all(|v| v.is_finite())
         .then(|| Cost::from_sum(regression.l1_residual(step), regression.len()));
-    let metric = theta_from_gram::<S>(&tables, &sos.gram(&solution));
+    let certificate = sos.certificate(&solution);
+    let metric = theta_from_gram::<S>(&layout, &certificate.lower);
     let entropy: Vec<f64> = psi
         .iter()
         .zip(&step[t_len..])
@@ -154,6 +155,7 @@ pub fn joint_step<S: MetriplecticSystem>(
     Ok(JointStep {
         entropy,
         metric,
+        certificate,
         predicted,
         report: SearchReport::new(&solution, build_seconds, cost),
     })

@@ -2,37 +2,35 @@
 //! coefficients θ with the entropy fixed, under sum-of-squares constraints
 //! that make 0 ⪯ K(x) ⪯ ηI hold for every x (see [`super::sos`]).
 
-use super::sos::{add_sos_constraints, check_tables, theta_from_gram, SosConstraints};
+use super::sos::{add_sos_constraints, layout, SosConstraints};
 use super::{check_sample_rows, SearchOptions, SearchReport};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{check_finite, check_len, Result};
 use crate::identify::cost::model_cost;
-use crate::model::Model;
+use crate::model::{theta_from_gram, GramCertificate, Model};
 use crate::solve::{solve_l1, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
 
 /// Result of a metric search.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MetricSearch {
-    /// Metric coefficients θ, recomputed from `gram` through the matching
-    /// tables. Meaningful only if `report.status` is usable.
+    /// Metric coefficients θ, recomputed from the lower Gram matrices of
+    /// `certificate` through the matching tables. Meaningful only if
+    /// `report.status` is usable.
     pub coefficients: Vec<f64>,
-    /// Side N = n·|m| of the Gram matrices, m the SOS basis.
-    pub gram_size: usize,
-    /// Q₁ (row-major N×N) with K(x) = Z(x)ᵀ Q₁ Z(x); rows/columns indexed by
-    /// (j, β) ↦ j·|m| + β.
-    pub gram: Vec<f64>,
-    /// Q₂ (row-major N×N) certifying ηI − K(x) ⪰ 0.
-    pub gram_upper: Vec<f64>,
-    /// The SOS basis monomials m(x) used.
-    pub sos_exponents: &'static [&'static [u32]],
+    /// The Gram matrices proving 0 ⪯ K and K ⪯ ηI (everywhere, or on the
+    /// system's region), one per block of the system's certificate.
+    pub certificate: GramCertificate,
     /// Status, timings and the recomputed cost of `coefficients`.
     pub report: SearchReport,
 }
 
 /// Fits the metric coefficients θ to `data` with the entropy coefficients ψ
-/// (`entropy`) held fixed, under the SOS constraints 0 ⪯ K(x) ⪯ ηI.
+/// (`entropy`) held fixed, under the SOS constraints 0 ⪯ K(x) ⪯ ηI: for
+/// every x, or, for a system that declares a region, K(x) ⪯ ηI on the
+/// region and K(x) ⪰ 0 everywhere or on the region as its certificate mode
+/// says.
 ///
 /// Errors on invalid input; solver trouble is reported in
 /// [`SearchReport::status`], not as an error.
@@ -42,9 +40,10 @@ pub struct MetricSearch {
 /// are used: the full tables describe a program without a strictly feasible
 /// point, which interior-point solvers handle badly.
 ///
-/// The returned θ is recomputed from the solver's Q₁ (taken from the cone
-/// slack, which lies in the PSD cone), so K(x) = Z(x)ᵀ Q₁ Z(x) holds exactly
-/// and K(x) ⪰ 0 up to rounding whatever the solver's feasibility tolerance.
+/// The returned θ is recomputed from the solver's lower Gram matrices
+/// (taken from the cone slacks, which lie in the PSD cones), so the lower
+/// certificate holds on the metric basis exactly and K(x) ⪰ 0 up to
+/// rounding whatever the solver's feasibility tolerance.
 pub fn metric_search<S: MetriplecticSystem>(
     data: &impl IdentificationData,
     entropy: &[f64],
@@ -58,32 +57,26 @@ pub fn metric_search<S: MetriplecticSystem>(
     )?;
     check_finite("entropy coefficients", entropy)?;
     options.validate()?;
-    let tables = options.sos.tables::<S>();
-    check_tables::<S>(&tables)?;
+    let layout = layout::<S>(options.sos)?;
 
     let start = std::time::Instant::now();
     let theta_len = S::metric_coefficient_count();
-    let gram_size = S::DIM * tables.exponents.len();
     let mut problem = L1Problem::new(
         metric_regression::<S>(data, entropy)?,
-        SosConstraints::variables(gram_size),
+        SosConstraints::variables::<S>(&layout),
     );
-    let sos = add_sos_constraints::<S>(&mut problem, &tables, options.eta, 0, theta_len)?;
+    let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, theta_len)?;
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;
 
-    let gram = sos.gram(&solution);
-    let gram_upper = sos.gram_upper(&solution);
-    let coefficients = theta_from_gram::<S>(&tables, &gram);
+    let certificate = sos.certificate(&solution);
+    let coefficients = theta_from_gram::<S>(&layout, &certificate.lower);
     let cost = Model::<S>::new(entropy.to_vec(), coefficients.clone())
         .ok()
         .and_then(|model| model_cost(&model, data).ok());
     Ok(MetricSearch {
         coefficients,
-        gram_size: sos.gram_size,
-        gram,
-        gram_upper,
-        sos_exponents: tables.exponents,
+        certificate,
         report: SearchReport::new(&solution, build_seconds, cost),
     })
 }
@@ -136,7 +129,7 @@ mod tests {
         let error = max_error(&fit.coefficients, &identity_metric::<Quadratic2d>(1.0));
         assert!(error < 1e-7, "max θ error {error}");
         assert!(fit.report.cost.unwrap().per_component < 1e-7);
-        assert_eq!(fit.gram_size, 2);
+        assert_eq!(fit.certificate.lower[0].size, 2);
     }
 
     #[test]
@@ -155,6 +148,6 @@ mod tests {
         );
         assert!(fit.report.status.is_usable());
         assert!(error < 1e-6, "max θ error {error}");
-        assert_eq!(fit.gram_size, 6);
+        assert_eq!(fit.certificate.lower[0].size, 6);
     }
 }

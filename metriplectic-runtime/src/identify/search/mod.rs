@@ -200,9 +200,9 @@ mod tests {
                     fit.report
                 );
                 // Q₁ and Q₂ come from the cone slacks: positive semidefinite.
-                for gram in [&fit.gram, &fit.gram_upper] {
-                    let n = fit.gram_size;
-                    let smallest = DMatrix::from_row_slice(n, n, gram)
+                for gram in fit.certificate.lower.iter().chain(&fit.certificate.upper) {
+                    let n = gram.size;
+                    let smallest = DMatrix::from_row_slice(n, n, &gram.values)
                         .symmetric_eigenvalues()
                         .min();
                     assert!(

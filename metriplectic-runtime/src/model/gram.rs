@@ -1,0 +1,444 @@
+//! The Gram-matrix form of a metric certificate: which sum-of-squares blocks
+//! make up K(x) and ηI − K(x), and the Gram matrices that prove both bounds.
+//!
+//! Without a declared region the certificate is one block per side over the
+//! system's [`SosTables`] (0 ⪯ K ⪯ ηI everywhere, which forces K constant);
+//! with a region it is the system's [`RegionCertificate`] (the matrix
+//! S-procedure, `docs/method.md` §2). Both are described by the same
+//! [`Layout`], so the searches, the model's checks and the model file treat
+//! them alike: for every pair j ≤ k and target monomial α,
+//!
+//! ```text
+//! Σ_lower  Σ_{(β,γ,c)} c·Qᵦ[(j,β),(k,γ)] = θⱼₖ,α          (0 above the metric basis)
+//! Σ_upper  Σ_{(β,γ,c)} c·Qᵦ[(j,β),(k,γ)] = η[j=k][α=0] − θⱼₖ,α
+//! ```
+
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{invalid, Result};
+use crate::solve::linalg::symmetric_eigenvalues;
+use crate::system::{metric_pair_index, MetriplecticSystem, SosTables};
+
+/// A block's coefficient-matching table: unit weights for the global
+/// tables, weighted (multiplier products) for a region certificate.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Matching {
+    Unit(&'static [&'static [(u16, u16)]]),
+    Weighted(&'static [&'static [(u16, u16, f64)]]),
+}
+
+impl Matching {
+    /// Number of target monomials the table covers.
+    fn targets(self) -> usize {
+        match self {
+            Self::Unit(rows) => rows.len(),
+            Self::Weighted(rows) => rows.len(),
+        }
+    }
+
+    /// The entries (β, γ, c) of target `alpha`.
+    pub fn entries(self, alpha: usize) -> Box<dyn Iterator<Item = (usize, usize, f64)>> {
+        match self {
+            Self::Unit(rows) => Box::new(
+                rows[alpha]
+                    .iter()
+                    .map(|&(b, g)| (b as usize, g as usize, 1.0)),
+            ),
+            Self::Weighted(rows) => Box::new(
+                rows[alpha]
+                    .iter()
+                    .map(|&(b, g, c)| (b as usize, g as usize, c)),
+            ),
+        }
+    }
+}
+
+/// One sum-of-squares block g(x)·Z(x)ᵀQZ(x), Z = I ⊗ m(x).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BlockLayout {
+    /// The block's basis monomials m(x).
+    pub basis: &'static [&'static [u32]],
+    /// Per target monomial, the Gram entries that produce it.
+    pub matching: Matching,
+}
+
+impl BlockLayout {
+    /// Side n·|m| of the block's Gram matrix.
+    pub fn size(&self, n: usize) -> usize {
+        n * self.basis.len()
+    }
+}
+
+/// The blocks of a system's metric certificate.
+#[derive(Debug, Clone)]
+pub(crate) struct Layout {
+    /// Number of target monomials; the metric basis is their prefix.
+    pub targets: usize,
+    /// Blocks summing to K(x).
+    pub lower: Vec<BlockLayout>,
+    /// Blocks summing to ηI − K(x).
+    pub upper: Vec<BlockLayout>,
+}
+
+impl Layout {
+    /// The region certificate of `S` if it declares one, else one block per
+    /// side over `tables` (the global certificate).
+    pub fn of<S: MetriplecticSystem>(tables: SosTables) -> Self {
+        match S::REGION_CERTIFICATE {
+            Some(certificate) => {
+                let blocks = |blocks: &'static [crate::system::GramBlock]| {
+                    blocks
+                        .iter()
+                        .map(|b| BlockLayout {
+                            basis: b.exponents,
+                            matching: Matching::Weighted(b.matching),
+                        })
+                        .collect()
+                };
+                Self {
+                    targets: certificate.targets.len(),
+                    lower: blocks(certificate.lower),
+                    upper: blocks(certificate.upper),
+                }
+            }
+            None => {
+                let block = BlockLayout {
+                    basis: tables.exponents,
+                    matching: Matching::Unit(tables.matching),
+                };
+                Self {
+                    targets: tables.matching.len(),
+                    lower: vec![block],
+                    upper: vec![block],
+                }
+            }
+        }
+    }
+
+    /// Errors unless every table fits the metric basis of `S` and its own
+    /// block basis (tables come from the macro, but a hand-written
+    /// implementation of the trait could disagree).
+    pub fn check<S: MetriplecticSystem>(&self) -> Result<()> {
+        let what = format!("metric certificate tables of system `{}`", S::NAME);
+        let basis = S::METRIC_EXPONENTS.len();
+        if self.targets < basis {
+            return Err(invalid(
+                &what,
+                format!(
+                    "{} target monomials for {basis} metric monomials",
+                    self.targets
+                ),
+            ));
+        }
+        if !S::METRIC_EXPONENTS
+            .first()
+            .is_some_and(|e| e.iter().all(|&d| d == 0))
+        {
+            return Err(invalid(
+                &what,
+                "the metric basis does not start with the constant monomial",
+            ));
+        }
+        for block in self.lower.iter().chain(&self.upper) {
+            let m = block.basis.len();
+            if block.matching.targets() != self.targets {
+                return Err(invalid(
+                    &what,
+                    format!(
+                        "a block matches {} target monomials, not {}",
+                        block.matching.targets(),
+                        self.targets
+                    ),
+                ));
+            }
+            for alpha in 0..self.targets {
+                if let Some((b, g, _)) = block
+                    .matching
+                    .entries(alpha)
+                    .find(|&(b, g, c)| b >= m || g >= m || !c.is_finite())
+                {
+                    return Err(invalid(
+                        &what,
+                        format!("entry ({b}, {g}) of target {alpha} is outside the {m} basis monomials or not finite"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The Gram matrix Q ⪰ 0 of one sum-of-squares block, row-major, with rows
+/// and columns indexed by (j, β) ↦ j·|m| + β (state index j, basis monomial β).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GramMatrix {
+    /// Side n·|m|.
+    pub size: usize,
+    /// The size² entries, row-major.
+    pub values: Vec<f64>,
+}
+
+impl GramMatrix {
+    fn entry(&self, a: usize, b: usize) -> f64 {
+        self.values[a * self.size + b]
+    }
+}
+
+/// The Gram matrices that prove a metric's bounds, one per block of the
+/// system's certificate, in the order of its tables: the `lower` blocks sum
+/// to K(x), the `upper` blocks to ηI − K(x) (each block multiplied by its
+/// region constraint, if any; see [`RegionCertificate`](crate::RegionCertificate)).
+///
+/// Identification keeps the certificate of the metric search or joint step
+/// that produced a model's metric ([`Model::certificate`](crate::Model::certificate)),
+/// and model files carry it, so anyone can re-check it with
+/// [`GramCertificate::check`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GramCertificate {
+    /// The bound η of ηI − K(x).
+    pub eta: f64,
+    /// The Gram matrices of the blocks whose sum is K(x).
+    pub lower: Vec<GramMatrix>,
+    /// The Gram matrices of the blocks whose sum is ηI − K(x).
+    pub upper: Vec<GramMatrix>,
+}
+
+/// How well a [`GramCertificate`] proves a metric's bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CertificateCheck {
+    /// The largest violation of a coefficient identity, relative to
+    /// max(η, the largest |Gram entry|): 0 for an exact certificate.
+    pub identity_residual: f64,
+    /// The smallest eigenvalue over all Gram matrices, relative to the same
+    /// scale: ≥ 0 for a valid certificate.
+    pub smallest_eigenvalue: f64,
+}
+
+impl CertificateCheck {
+    /// Whether both numbers are within `tolerance` (identities off by at
+    /// most it, eigenvalues at least −it).
+    pub fn holds(&self, tolerance: f64) -> bool {
+        self.identity_residual <= tolerance && self.smallest_eigenvalue >= -tolerance
+    }
+}
+
+impl GramCertificate {
+    /// Checks the certificate against metric coefficients `theta` of
+    /// system `S`: every Gram matrix's smallest eigenvalue and every
+    /// coefficient identity of the system's certificate (its region
+    /// certificate if it declares one, else the global tables — the
+    /// facially reduced ones, or the full ones if the Gram matrices have
+    /// their size).
+    ///
+    /// Errors if the number or sizes of the Gram matrices do not fit the
+    /// system's blocks or `theta` has the wrong length.
+    pub fn check<S: MetriplecticSystem>(&self, theta: &[f64]) -> Result<CertificateCheck> {
+        let reduced = Layout::of::<S>(S::SOS_REDUCED);
+        let full = Layout::of::<S>(S::SOS_FULL);
+        let layout = if self.check_shape(&reduced, S::DIM).is_err()
+            && self.check_shape(&full, S::DIM).is_ok()
+        {
+            full
+        } else {
+            reduced
+        };
+        self.check_with::<S>(&layout, theta)
+    }
+
+    pub(crate) fn check_with<S: MetriplecticSystem>(
+        &self,
+        layout: &Layout,
+        theta: &[f64],
+    ) -> Result<CertificateCheck> {
+        let n = S::DIM;
+        crate::error::check_len("metric coefficients", theta, S::metric_coefficient_count())?;
+        self.check_shape(layout, n)?;
+        let scale = self
+            .lower
+            .iter()
+            .chain(&self.upper)
+            .flat_map(|q| q.values.iter())
+            .fold(self.eta.abs(), |m, v| m.max(v.abs()))
+            .max(f64::MIN_POSITIVE);
+        let mut smallest = f64::INFINITY;
+        for q in self.lower.iter().chain(&self.upper) {
+            let matrix = DMatrix::from_row_slice(q.size, q.size, &q.values);
+            let symmetric = (&matrix + matrix.transpose()) * 0.5;
+            let asymmetry = (&matrix - &symmetric).amax();
+            let low = symmetric_eigenvalues(&symmetric)
+                .and_then(|values| values.first().copied())
+                .unwrap_or(f64::NAN);
+            // An asymmetric "Gram matrix" is no certificate: count it as a violation.
+            smallest = smallest.min(low - asymmetry);
+        }
+        let residual = identity_residuals::<S>(layout, self, theta)
+            .into_iter()
+            .fold(0.0_f64, |m, r| m.max(r.abs()));
+        Ok(CertificateCheck {
+            identity_residual: residual / scale,
+            smallest_eigenvalue: if smallest.is_finite() {
+                smallest / scale
+            } else {
+                f64::NEG_INFINITY
+            },
+        })
+    }
+
+    fn check_shape(&self, layout: &Layout, n: usize) -> Result<()> {
+        for (side, grams, blocks) in [
+            ("lower", &self.lower, &layout.lower),
+            ("upper", &self.upper, &layout.upper),
+        ] {
+            if grams.len() != blocks.len() {
+                return Err(invalid(
+                    "Gram certificate",
+                    format!(
+                        "{} {side} Gram matrices for the system's {} {side} blocks",
+                        grams.len(),
+                        blocks.len()
+                    ),
+                ));
+            }
+            for (i, (q, block)) in grams.iter().zip(blocks).enumerate() {
+                let size = block.size(n);
+                if q.size != size || q.values.len() != size * size {
+                    return Err(invalid(
+                        "Gram certificate",
+                        format!(
+                            "{side} block {}: a {}×{} matrix with {} entries where the system's \
+                             block is {size}×{size}",
+                            i + 1,
+                            q.size,
+                            q.size,
+                            q.values.len()
+                        ),
+                    ));
+                }
+            }
+        }
+        if !self.eta.is_finite() {
+            return Err(invalid("Gram certificate", format!("η = {}", self.eta)));
+        }
+        Ok(())
+    }
+}
+
+/// Σ over `blocks` of [g Zᵀ Q Z]ⱼₖ,α.
+fn block_sum(
+    blocks: &[BlockLayout],
+    grams: &[GramMatrix],
+    (j, k): (usize, usize),
+    alpha: usize,
+) -> f64 {
+    blocks
+        .iter()
+        .zip(grams)
+        .map(|(block, q)| {
+            let m = block.basis.len();
+            block
+                .matching
+                .entries(alpha)
+                .map(|(b, g, c)| c * q.entry(j * m + b, k * m + g))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// Every coefficient identity's residual, lower then upper side.
+fn identity_residuals<S: MetriplecticSystem>(
+    layout: &Layout,
+    certificate: &GramCertificate,
+    theta: &[f64],
+) -> Vec<f64> {
+    let n = S::DIM;
+    let basis = S::METRIC_EXPONENTS.len();
+    let mut residuals = Vec::new();
+    for j in 0..n {
+        for k in j..n {
+            let pair = metric_pair_index(n, j, k);
+            for alpha in 0..layout.targets {
+                let value = if alpha < basis {
+                    theta[pair * basis + alpha]
+                } else {
+                    0.0
+                };
+                let bound = if j == k && alpha == 0 {
+                    certificate.eta
+                } else {
+                    0.0
+                };
+                residuals.push(value - block_sum(&layout.lower, &certificate.lower, (j, k), alpha));
+                residuals.push(
+                    bound - value - block_sum(&layout.upper, &certificate.upper, (j, k), alpha),
+                );
+            }
+        }
+    }
+    residuals
+}
+
+/// θⱼₖ,α = Σ_lower [g Zᵀ Q Z]ⱼₖ,α on the metric basis: the metric the lower
+/// Gram matrices prove, so that its lower bound holds up to rounding
+/// whatever the solver's feasibility tolerance.
+pub(crate) fn theta_from_gram<S: MetriplecticSystem>(
+    layout: &Layout,
+    lower: &[GramMatrix],
+) -> Vec<f64> {
+    let n = S::DIM;
+    let basis = S::METRIC_EXPONENTS.len();
+    let mut theta = vec![0.0; S::metric_coefficient_count()];
+    for j in 0..n {
+        for k in j..n {
+            let pair = metric_pair_index(n, j, k);
+            for alpha in 0..basis {
+                theta[pair * basis + alpha] = block_sum(&layout.lower, lower, (j, k), alpha);
+            }
+        }
+    }
+    theta
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_system::Quadratic2d;
+
+    #[test]
+    fn theta_from_gram_matches_the_sos_form() {
+        // K(x) = Z(x)ᵀ Q Z(x) for a random symmetric Q over the full basis.
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let size = 6;
+        let mut q = vec![0.0; size * size];
+        for a in 0..size {
+            for b in a..size {
+                let v: f64 = rng.random_range(-1.0..1.0);
+                q[a * size + b] = v;
+                q[b * size + a] = v;
+            }
+        }
+        let tables = Quadratic2d::SOS_FULL;
+        let layout = Layout::of::<Quadratic2d>(tables);
+        let theta = theta_from_gram::<Quadratic2d>(
+            &layout,
+            &[GramMatrix {
+                size,
+                values: q.clone(),
+            }],
+        );
+        let x = [0.7, -1.3];
+        let z = [1.0, x[0], x[1]];
+        let mut k = [0.0; 4];
+        Quadratic2d::metric_value(&x, &theta, &mut k);
+        for j in 0..2 {
+            for l in 0..2 {
+                let direct: f64 = (0..3)
+                    .flat_map(|b| (0..3).map(move |g| (b, g)))
+                    .map(|(b, g)| z[b] * q[(j * 3 + b) * size + l * 3 + g] * z[g])
+                    .sum();
+                assert!((direct - k[j * 2 + l]).abs() < 1e-12);
+            }
+        }
+    }
+}
