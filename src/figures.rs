@@ -42,6 +42,29 @@ pub fn write_all(
                     ..Labels::default()
                 },
             )?,
+            ZeroSet::None if state_names.len() == 2 => phase_portrait_2d(
+                &path,
+                &trajectories,
+                &[],
+                &Labels {
+                    title: "Identified model: trajectories from random initial states",
+                    x: name(0),
+                    y: name(1),
+                    ..Labels::default()
+                },
+            )?,
+            ZeroSet::None => trajectories_3d(
+                &path,
+                &trajectories,
+                None,
+                &Labels {
+                    title: "Identified model: trajectories from random initial states",
+                    x: name(0),
+                    y: name(1),
+                    z: name(2),
+                    reference: "",
+                },
+            )?,
             ZeroSet::Sphere(radius) => trajectories_3d(
                 &path,
                 &trajectories,

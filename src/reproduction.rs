@@ -128,6 +128,8 @@ pub enum ZeroSet {
     Curve(Vec<(f64, f64)>),
     /// The sphere of this radius around the origin.
     Sphere(f64),
+    /// Nothing drawn besides the trajectories.
+    None,
 }
 
 /// The experiment-specific part of a reproduction.
@@ -144,6 +146,9 @@ pub struct Experiment {
     /// Standard deviation of the Gaussian perturbation of the true entropy
     /// coefficients that gives the initial entropy.
     pub initial_entropy_std: f64,
+    /// Start from the entropy S = 0 instead (a cold start: nothing of the
+    /// truth is used); `initial_entropy_std` is then unused.
+    pub cold_start: bool,
     /// Coefficient bound η.
     pub eta: f64,
     /// Default iteration cap: the paper's iteration count.
@@ -185,6 +190,12 @@ pub struct Summary {
     pub heldout_relative_error: f64,
     /// Mean |ẋ − f_fit(x)| per component over the held-out samples.
     pub heldout_mean_abs_residual: f64,
+    /// max over held-out states of ‖K_fit(x) − K_true(x)‖ / ‖K_true(x)‖
+    /// (Frobenius norms).
+    pub heldout_metric_error: f64,
+    /// How much the true metric varies over the held-out states: max of
+    /// ‖K(x) − K(x̄)‖ / ‖K(x̄)‖ with x̄ their mean (0 for a constant metric).
+    pub metric_variation: f64,
     /// Fraction of integration steps of the identified model's simulated
     /// trajectories where E decreased beyond the integrator's tolerance.
     pub free_energy_decrease_fraction: f64,
@@ -319,11 +330,11 @@ pub fn run_until<S: MetriplecticSystem>(
         max_iterations: iterations,
         tolerance: options.tolerance,
         seed: options.seed,
-        initial_entropy: Some(perturbed_entropy::<S>(
-            &truth,
-            experiment.initial_entropy_std,
-            options.seed,
-        )?),
+        initial_entropy: Some(if experiment.cold_start {
+            vec![0.0; S::entropy_coefficient_count()]
+        } else {
+            perturbed_entropy::<S>(&truth, experiment.initial_entropy_std, options.seed)?
+        }),
         scheme: options.scheme.to_config(),
         search: SearchOptions {
             eta: experiment.eta,
@@ -372,6 +383,7 @@ pub fn run_until<S: MetriplecticSystem>(
 
     let (heldout_relative_error, heldout_mean_abs_residual) =
         held_out_errors(model, &truth, held_out)?;
+    let (heldout_metric_error, metric_variation) = held_out_metric(model, &truth, held_out)?;
     let (simulations, failed_simulations) = simulate_for_plots(model, experiment, options)?;
     let steps: usize = simulations.iter().map(|s| s.energy.steps).sum();
     let violations: usize = simulations.iter().map(|s| s.energy.violations).sum();
@@ -403,6 +415,8 @@ pub fn run_until<S: MetriplecticSystem>(
         final_entropy_cost: last.map_or(f64::NAN, |r| r.cost_after().per_component),
         heldout_relative_error,
         heldout_mean_abs_residual,
+        heldout_metric_error,
+        metric_variation,
         free_energy_decrease_fraction: if steps == 0 {
             0.0
         } else {
@@ -517,6 +531,41 @@ pub fn held_out_errors<S: MetriplecticSystem>(
         (diff2 / true2).sqrt(),
         abs_residual / (held_out.len() * n) as f64,
     ))
+}
+
+/// (max ‖K_fit(x) − K_true(x)‖ / ‖K_true(x)‖, max ‖K_true(x) − K_true(x̄)‖ /
+/// ‖K_true(x̄)‖) over the held-out states x, x̄ their mean; Frobenius norms.
+pub fn held_out_metric<S: MetriplecticSystem>(
+    model: &Model<S>,
+    truth: &Model<S>,
+    held_out: &Dataset,
+) -> Result<(f64, f64), ReproductionError> {
+    let n = S::DIM;
+    let norm = |a: &[f64]| a.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let distance = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let mut mean = vec![0.0; n];
+    for (x, _) in held_out.iter() {
+        mean.iter_mut()
+            .zip(x)
+            .for_each(|(m, v)| *m += v / held_out.len() as f64);
+    }
+    let (mut fit, mut reference, mut at_mean) =
+        (vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]);
+    truth.metric(&mean, &mut at_mean)?;
+    let (mut error, mut variation) = (0.0_f64, 0.0_f64);
+    for (x, _) in held_out.iter() {
+        model.metric(x, &mut fit)?;
+        truth.metric(x, &mut reference)?;
+        error = error.max(distance(&fit, &reference) / norm(&reference));
+        variation = variation.max(distance(&reference, &at_mean) / norm(&at_mean));
+    }
+    Ok((error, variation))
 }
 
 /// Simulations of the identified model from random initial states, and the
@@ -708,9 +757,11 @@ fn human_summary<S: MetriplecticSystem>(
     }
     let _ = writeln!(
         text,
-        "held-out relative error {:.3e}, mean |residual| {:.3e}; free energy decreased on {:.3}% of simulated steps",
+        "held-out relative error {:.3e}, mean |residual| {:.3e}, metric error {:.3e} (the true metric varies by {:.3e}); free energy decreased on {:.3}% of simulated steps",
         summary.heldout_relative_error,
         summary.heldout_mean_abs_residual,
+        summary.heldout_metric_error,
+        summary.metric_variation,
         100.0 * summary.free_energy_decrease_fraction
     );
     let _ = write!(

@@ -71,6 +71,66 @@ metriplectic! {
     }
 }
 
+metriplectic! {
+    /// The damped double well of [`Duffing`] with drag that grows with speed
+    /// (not from the paper): ẋ = v, v̇ = x − x³ − (0.1 + 0.2v²)v.
+    ///
+    /// As for [`Duffing`], E = −H and S = −2H, now with the state-dependent
+    /// metric K(x) = diag(0, 0.1 + 0.2v²): friction on the velocity whose
+    /// coefficient rises with the speed, as drag in a fluid does. K is a sum
+    /// of squares for every state, and on the ball of radius 3 its largest
+    /// eigenvalue is 1.9, so the certificate's upper bound needs η ≥ 1.9.
+    ///
+    /// Why no friction on x as well: with K = diag(k₀, k(v)), k₀ > 0, the
+    /// flow is not identifiable. Because E is a sum of a function of x and
+    /// one of v, rescaling its two parts by a and b with 1/a + 1/b = 2 and
+    /// taking K′ = (Π + K)·diag(1/a, 1/b) − Π gives the same vector field
+    /// with another symmetric K′, PSD for a near 1 (measured: an exact fit,
+    /// error 1.8e-10, with K′₀₁ = 0.055). With k₀ = 0, K′ ⪰ 0 forces
+    /// K′₀₁ = 1 − 1/b = 0, so a = b = 1.
+    pub struct DragDuffing;
+    state (x, v);
+    poisson = [[0, -1], [1, 0]];
+    hamiltonian = 0.5 * v^2 + 0.25 * x^4 - 0.5 * x^2;
+    entropy degree 4;
+    metric degree 2;
+    region ball(radius = 3);
+    reference {
+        entropy = -(v^2 + 0.5 * x^4 - x^2);
+        metric = [[0, 0], [0, 0.1 + 0.2 * v^2]];
+    }
+}
+
+metriplectic! {
+    /// A rigid body in a fluid (not from the paper): the free rigid body of
+    /// [`RigidBody`] (Π(p) = p̂, the same inertia) with an isotropic drag
+    /// that grows with the angular momentum, K(x) = (0.1 + 0.2|p|²) I, and
+    /// the free energy E = −½(|p|² − 1)² − ¼(px⁴ + py⁴ + pz⁴).
+    ///
+    /// Unlike the paper's radial E, this one makes p̂∇E ≠ 0, which removes
+    /// the scaling symmetry (K, E) ↦ (cK, E/c), and its gradient's
+    /// components share no factor, so no degree-2 change of K leaves K∇E
+    /// unchanged: (S, K) is identifiable. On the ball of radius 2.5 the
+    /// largest eigenvalue of K is 1.35.
+    pub struct DragRigidBody;
+    state (px, py, pz);
+    const j1 = 0.1;
+    const j2 = 0.2;
+    const j3 = 0.15;
+    poisson = [[0, -pz, py], [pz, 0, -px], [-py, px, 0]];
+    hamiltonian = 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
+    entropy degree 4;
+    metric degree 2;
+    region ball(radius = 2.5);
+    reference {
+        entropy = -0.5 * (px^2 + py^2 + pz^2 - 1)^2 - 0.25 * (px^4 + py^4 + pz^4)
+            - 0.5 * (px^2 / j1 + py^2 / j2 + pz^2 / j3);
+        metric = [[0.1 + 0.2 * (px^2 + py^2 + pz^2), 0, 0],
+                  [0, 0.1 + 0.2 * (px^2 + py^2 + pz^2), 0],
+                  [0, 0, 0.1 + 0.2 * (px^2 + py^2 + pz^2)]];
+    }
+}
+
 /// `count` states drawn by `sample_state`, with ẋ from the reference model
 /// of `S` (exact, no noise).
 ///
