@@ -19,6 +19,7 @@
 //! | `hostile_input`, `solver_trouble` | bad data and failing solves |
 //! | `reproduction`, `reproduction_interrupt` | the paper reproductions end to end |
 //! | `from_csv` | identification from a trajectory CSV, the `from_csv` example's pipeline |
+//! | `region_certificates` | state-dependent metrics certified on a region |
 //! | `plot` | figures |
 
 mod common;
@@ -40,6 +41,7 @@ mod metric_positivity;
 mod metric_search;
 mod model_files;
 mod plot;
+mod region_certificates;
 mod reproduction;
 mod reproduction_interrupt;
 mod simulation;

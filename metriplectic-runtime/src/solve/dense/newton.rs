@@ -97,13 +97,12 @@ impl<'a> Newton<'a> {
             let candidate = solution.plus(&self.solve_reduced(&residual));
             let next = rhs.minus(&self.apply(&candidate));
             let next_size = next.amax();
-            if step >= 2 && !(next_size < 0.5 * size) {
-                break;
-            }
-            if next_size.is_finite() && next_size <= size || step < 2 {
+            // NaN compares false: a non-finite refinement is never "halved".
+            let halved = next_size < 0.5 * size;
+            if step < 2 || halved {
                 (solution, residual, size) = (candidate, next, next_size);
             }
-            if size == 0.0 {
+            if (step >= 1 && !halved) || size == 0.0 {
                 break;
             }
         }

@@ -1,0 +1,297 @@
+//! State-dependent metrics certified on a region (`region ball(…)` /
+//! `box(…)`): identification from S = 0 recovers the field and K(x), the
+//! Gram certificates prove both bounds, the backends agree, model files
+//! carry the region, and a metric certified on the region only is accepted
+//! there and nowhere else.
+
+use metriplectic::systems::{reference_samples, DragDuffing, DragRigidBody};
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{
+    metric_search, CertificateMode, IdentifyConfig, Region, SearchOptions, SolveStatus,
+    SolverBackend, SolverSettings,
+};
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// States uniform in the ball of `radius` around the origin.
+fn in_ball(rng: &mut ChaCha8Rng, n: usize, radius: f64) -> Vec<f64> {
+    loop {
+        let x: Vec<f64> = (0..n).map(|_| rng.random_range(-radius..radius)).collect();
+        if x.iter().map(|v| v * v).sum::<f64>() <= radius * radius {
+            return x;
+        }
+    }
+}
+
+fn data<S: MetriplecticSystem>(count: usize, seed: u64, radius: f64) -> Dataset {
+    reference_samples::<S>(count, seed, |rng| in_ball(rng, S::DIM, radius))
+}
+
+fn eigenvalues<S: MetriplecticSystem>(model: &Model<S>, x: &[f64]) -> Vec<f64> {
+    let n = S::DIM;
+    let mut k = vec![0.0; n * n];
+    model.metric(x, &mut k).unwrap();
+    let mut values: Vec<f64> = DMatrix::from_row_slice(n, n, &k)
+        .symmetric_eigen()
+        .eigenvalues
+        .iter()
+        .copied()
+        .collect();
+    values.sort_by(f64::total_cmp);
+    values
+}
+
+/// (‖f_fit − f‖/‖f‖ over all samples, max ‖K_fit(x) − K(x)‖/‖K(x)‖).
+fn errors<S: MetriplecticSystem>(model: &Model<S>, held_out: &Dataset) -> (f64, f64) {
+    let truth = Model::<S>::reference().unwrap();
+    let n = S::DIM;
+    let (mut f, mut g) = (vec![0.0; n], vec![0.0; n]);
+    let (mut k, mut l) = (vec![0.0; n * n], vec![0.0; n * n]);
+    let (mut diff, mut norm, mut metric) = (0.0, 0.0, 0.0_f64);
+    let distance = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    for (x, _) in held_out.iter() {
+        model.vector_field(x, &mut f).unwrap();
+        truth.vector_field(x, &mut g).unwrap();
+        diff += distance(&f, &g).powi(2);
+        norm += g.iter().map(|v| v * v).sum::<f64>();
+        model.metric(x, &mut k).unwrap();
+        truth.metric(x, &mut l).unwrap();
+        metric = metric.max(distance(&k, &l) / l.iter().map(|v| v * v).sum::<f64>().sqrt());
+    }
+    ((diff / norm).sqrt(), metric)
+}
+
+/// Identifies `S` from S = 0 on exact data in the ball of `radius` (inside
+/// its region), checks the accuracy and the certificate.
+fn cold_start<S: MetriplecticSystem>(radius: f64, region_radius: f64) {
+    let train = data::<S>(400, 1, radius);
+    let held_out = data::<S>(200, 2, radius);
+    let config = IdentifyConfig {
+        initial_entropy: Some(vec![0.0; S::entropy_coefficient_count()]),
+        max_iterations: 150,
+        ..IdentifyConfig::default()
+    };
+    let eta = config.search.eta;
+    let run = identify::<S>(&train, &config).unwrap();
+    let (field, metric) = errors(&run.model, &held_out);
+    let nonoptimal = run
+        .history
+        .iterations
+        .iter()
+        .flat_map(|r| {
+            [&r.metric, &r.entropy]
+                .into_iter()
+                .chain(r.joint.as_ref().map(|j| &j.step))
+                .map(|step| step.report.status)
+        })
+        .filter(|s| *s != SolveStatus::Solved)
+        .count();
+    eprintln!(
+        "{}: {} iterations ({:?}), held-out field error {field:.2e}, metric error {metric:.2e}, \
+         {nonoptimal} non-optimal solves",
+        S::NAME,
+        run.history.iterations.len(),
+        run.stop_reason
+    );
+    assert!(field <= 1e-6, "held-out field error {field:e}");
+    assert!(metric <= 1e-5, "held-out metric error {metric:e}");
+
+    // The certificate kept with the model proves both bounds.
+    let certificate = run.model.certificate().expect("a certificate");
+    let check = certificate
+        .check::<S>(run.model.metric_coefficients())
+        .unwrap();
+    assert!(check.holds(1e-9), "{check:?}");
+    // K(x) ⪰ 0 inside and far outside the region, K(x) ⪯ ηI inside.
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for scale in [0.5, 1.0, 10.0, 1000.0] {
+        for _ in 0..200 {
+            let x = in_ball(&mut rng, S::DIM, scale * region_radius);
+            let values = eigenvalues(&run.model, &x);
+            let size = values.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+            assert!(values[0] >= -1e-9 * size, "λmin {} at {x:?}", values[0]);
+            if scale <= 1.0 {
+                let top = values[S::DIM - 1];
+                assert!(eta - top >= -1e-9, "λmax {top} above η = {eta} at {x:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn drag_duffing_is_identified_from_a_cold_start() {
+    cold_start::<DragDuffing>(2.0, 3.0);
+}
+
+#[test]
+fn drag_rigid_body_is_identified_from_a_cold_start() {
+    cold_start::<DragRigidBody>(1.5, 2.5);
+}
+
+#[test]
+fn the_region_and_mode_come_from_the_declaration() {
+    let certificate = DragDuffing::REGION_CERTIFICATE.expect("a region");
+    assert_eq!(
+        certificate.region,
+        Region::Ball {
+            center: &[0.0, 0.0],
+            radius: 3.0
+        }
+    );
+    assert_eq!(certificate.mode, CertificateMode::GlobalLowerBound);
+    assert!(certificate.region.contains(&[2.0, 2.0]));
+    assert!(!certificate.region.contains(&[2.2, 2.2]));
+}
+
+/// The dense backend reaches Clarabel's optimum on the region program, off
+/// the truth so that the optimum is not zero.
+#[test]
+fn backends_agree_on_the_region_program() {
+    let data = data::<DragRigidBody>(300, 4, 1.5);
+    let mut entropy = DragRigidBody::REFERENCE_ENTROPY.unwrap().to_vec();
+    entropy.iter_mut().step_by(3).for_each(|c| *c += 0.2);
+    let fit = |backend| {
+        let options = SearchOptions {
+            solver: SolverSettings {
+                backend,
+                ..SolverSettings::default()
+            },
+            ..SearchOptions::default()
+        };
+        metric_search::<DragRigidBody>(&data, &entropy, &options).unwrap()
+    };
+    let dense = fit(SolverBackend::Dense);
+    let clarabel = fit(SolverBackend::Clarabel(Default::default()));
+    for search in [&dense, &clarabel] {
+        assert_eq!(search.report.status, SolveStatus::Solved);
+        let check = search
+            .certificate
+            .check::<DragRigidBody>(&search.coefficients)
+            .unwrap();
+        assert!(check.holds(1e-9), "{check:?}");
+    }
+    let (a, b) = (
+        dense.report.cost.unwrap().sum,
+        clarabel.report.cost.unwrap().sum,
+    );
+    assert!(a > 1e-3);
+    assert!((a - b).abs() <= 1e-6 * b, "dense {a} vs Clarabel {b}");
+}
+
+#[test]
+fn model_files_carry_the_region_mode_and_certificate() {
+    let data = data::<DragDuffing>(200, 5, 2.0);
+    let entropy = DragDuffing::REFERENCE_ENTROPY.unwrap();
+    let search = metric_search::<DragDuffing>(&data, entropy, &SearchOptions::default()).unwrap();
+    let model = Model::<DragDuffing>::new(entropy.to_vec(), search.coefficients)
+        .unwrap()
+        .with_certificate(search.certificate)
+        .unwrap();
+    let json = model.to_json().unwrap();
+    for needle in [
+        "\"region\"",
+        "\"ball\"",
+        "GlobalLowerBound",
+        "for every state",
+        "\"certificate\"",
+    ] {
+        assert!(json.contains(needle), "no {needle} in {json}");
+    }
+    let loaded = Model::<DragDuffing>::from_json(&json).unwrap();
+    assert_eq!(loaded, model);
+    assert_eq!(loaded.certificate(), model.certificate());
+
+    // Another region is another system.
+    let moved = json.replace("\"radius\": 3.0", "\"radius\": 4.0");
+    assert_ne!(moved, json);
+    let error = Model::<DragDuffing>::from_json(&moved).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("different certificate region or mode"),
+        "{error}"
+    );
+    // A certificate with the wrong shape is refused, naming the block.
+    let mut value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    value["certificate"]["lower"][0]["size"] = 2.into();
+    let error = Model::<DragDuffing>::from_json(&value.to_string()).unwrap_err();
+    assert!(error.to_string().contains("lower block 1"), "{error}");
+}
+
+metriplectic! {
+    /// K(q) = 1 − q² is PSD on the box, not beyond it.
+    struct OnTheBoxOnly;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (q^2 + p^2);
+    entropy degree 2;
+    metric degree 2;
+    region box(q in [-0.5, 0.5], p in [-1, 1]);
+    certificate on region;
+}
+
+metriplectic! {
+    /// The same with the default mode: K(x) ⪰ 0 everywhere.
+    struct Everywhere;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (q^2 + p^2);
+    entropy degree 2;
+    metric degree 2;
+    region box(q in [-0.5, 0.5], p in [-1, 1]);
+}
+
+/// θ of K = diag(1 − c·q², 1).
+fn shrinking_metric<S: MetriplecticSystem>(c: f64) -> Vec<f64> {
+    let basis = S::METRIC_EXPONENTS.len();
+    let mut theta = vec![0.0; S::metric_coefficient_count()];
+    let q2 = S::METRIC_EXPONENTS
+        .iter()
+        .position(|e| e == &[2, 0])
+        .unwrap();
+    theta[0] = 1.0;
+    theta[q2] = -c;
+    theta[2 * basis] = 1.0;
+    theta
+}
+
+#[test]
+fn a_metric_certified_on_the_region_only_is_accepted_there_only() {
+    let entropy = vec![0.0; 5];
+    // 1 − q² ≥ 0.75 on the box: accepted when the region is all that counts.
+    let model =
+        Model::<OnTheBoxOnly>::new(entropy.clone(), shrinking_metric::<OnTheBoxOnly>(1.0)).unwrap();
+    assert!(model
+        .to_json()
+        .unwrap()
+        .contains("only for states in the region"));
+    // …but not where dE/dt ≥ 0 is promised for every state.
+    let error =
+        Model::<Everywhere>::new(entropy.clone(), shrinking_metric::<Everywhere>(1.0)).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            Error::MetricNotPositive { .. } | Error::MetricNotCertified { .. }
+        ),
+        "{error}"
+    );
+    // 1 − 8q² < 0 at q = ±0.5: refused on the region too, with a state inside it.
+    match Model::<OnTheBoxOnly>::new(entropy, shrinking_metric::<OnTheBoxOnly>(8.0)).unwrap_err() {
+        Error::MetricNotPositive {
+            eigenvalue,
+            state: Some(x),
+            ..
+        } => {
+            assert!(eigenvalue < 0.0);
+            assert!(x[0].abs() <= 0.5 && x[1].abs() <= 1.0, "{x:?}");
+        }
+        other => panic!("{other}"),
+    }
+}
