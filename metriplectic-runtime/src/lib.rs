@@ -49,8 +49,8 @@
 //!
 //! | layer | items |
 //! | --- | --- |
-//! | system | [`metriplectic!`], [`MetriplecticSystem`], [`SosTables`], [`JacobianTerm`] |
-//! | model | [`Model`] (evaluation, JSON files), [`WriteMode`] |
+//! | system | [`metriplectic!`], [`MetriplecticSystem`], [`SosTables`], [`JacobianTerm`]; a region certificate: [`RegionCertificate`], [`Region`], [`CertificateMode`], [`GramBlock`]; the classical form: [`Classical`] |
+//! | model | [`Model`] (evaluation, JSON files), [`WriteMode`]; its metric's proof: [`GramCertificate`], [`GramMatrix`], [`CertificateCheck`] |
 //! | data | [`Dataset`], [`WeakDataset`] (the weak form: states only), [`IdentificationData`], [`Trajectory`], [`read_trajectories`], [`write_trajectories`] (CSV), [`DerivativeMethod`], [`estimate_derivatives`], [`fit_smoothing_spline`] |
 //! | identify | [`identify`] and its variants, [`IdentifyConfig`], [`IterationScheme`], [`TrustRegion`], [`CheckpointConfig`], [`Identification`], [`History`], [`StopReason`], [`Cost`], [`model_cost`] |
 //! | searches | [`entropy_search`], [`metric_search`], [`joint_step`] with [`SearchOptions`] and [`SearchReport`] |

@@ -46,6 +46,7 @@ pub fn entropy_search<S: MetriplecticSystem>(
     check_len("metric coefficients", metric, S::metric_coefficient_count())?;
     check_finite("metric coefficients", metric)?;
     options.validate()?;
+    super::check_generalized::<S>()?;
 
     let p = S::entropy_coefficient_count();
     let start = std::time::Instant::now();

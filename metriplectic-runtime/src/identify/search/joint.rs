@@ -93,6 +93,7 @@ pub fn joint_step<S: MetriplecticSystem>(
 ) -> Result<JointStep> {
     check_dataset::<S>(data)?;
     options.validate()?;
+    super::check_generalized::<S>()?;
     if !(radius.is_finite() && radius > 0.0) {
         return Err(invalid(
             "trust radius",

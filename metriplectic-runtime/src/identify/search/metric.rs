@@ -57,6 +57,7 @@ pub fn metric_search<S: MetriplecticSystem>(
     )?;
     check_finite("entropy coefficients", entropy)?;
     options.validate()?;
+    super::check_generalized::<S>()?;
     let layout = layout::<S>(options.sos)?;
 
     let start = std::time::Instant::now();
