@@ -80,6 +80,8 @@ fn check_outputs<S: MetriplecticSystem>(out: &Path, summary: &Summary) -> Summar
         "final_entropy_cost",
         "heldout_relative_error",
         "heldout_mean_abs_residual",
+        "heldout_metric_error",
+        "metric_variation",
         "free_energy_decrease_fraction",
         "nonoptimal_solves",
         "seconds_total",
