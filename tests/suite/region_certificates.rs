@@ -102,6 +102,7 @@ fn cold_start<S: MetriplecticSystem>(radius: f64, region_radius: f64) {
     );
     assert!(field <= 1e-6, "held-out field error {field:e}");
     assert!(metric <= 1e-5, "held-out metric error {metric:e}");
+    assert_eq!(nonoptimal, 0, "every solve ends Solved");
 
     // The certificate kept with the model proves both bounds.
     let certificate = run.model.certificate().expect("a certificate");

@@ -36,6 +36,19 @@ const EIGENVALUE_TOLERANCE: f64 = 1e-10;
 /// Relative tolerance of the certificate program's optimum |s|, at the
 /// interior-point method's accuracy.
 const CERTIFICATE_TOLERANCE: f64 = 1e-8;
+/// The certificate program's solver settings: tolerances far below
+/// `CERTIFICATE_TOLERANCE`. A metric from a search sits on the boundary of
+/// the SOS cone (its Gram matrices are singular), so the program's optimum
+/// is s = 0 and only the solver's accuracy separates it from the tolerance.
+fn certificate_settings() -> SolverSettings {
+    SolverSettings {
+        tol_gap_abs: 1e-12,
+        tol_gap_rel: 1e-12,
+        tol_feas: 1e-12,
+        ..SolverSettings::default()
+    }
+}
+
 /// Largest Gram matrix side the certificate program is set up for.
 const MAX_GRAM_SIDE: usize = 64;
 
@@ -235,7 +248,13 @@ fn certify_block<S: MetriplecticSystem>(
     let mut sum = vec![0_u32; S::DIM];
     for (row_block, &(a, b, j, k)) in pairs.iter().enumerate() {
         let row = |alpha: usize| row_block * basis + alpha;
-        rhs[row_block * basis..(row_block + 1) * basis].copy_from_slice(entry::<S>(theta, j, k));
+        // Normalised, so that the solver's absolute tolerances are relative.
+        for (target, &c) in rhs[row_block * basis..(row_block + 1) * basis]
+            .iter_mut()
+            .zip(entry::<S>(theta, j, k))
+        {
+            *target = c / scale;
+        }
         for (beta, e_beta) in half.iter().enumerate() {
             for (gamma, e_gamma) in half.iter().enumerate() {
                 sum.iter_mut()
@@ -264,10 +283,10 @@ fn certify_block<S: MetriplecticSystem>(
             "the certificate program could not be built: {error}"
         ));
     }
-    let solution = solve_l1(&problem, &SolverSettings::default())
+    let solution = solve_l1(&problem, &certificate_settings())
         .map_err(|error| format!("the certificate program failed: {error}"))?;
-    let s = solution.coefficients()[0];
-    if solution.status.is_usable() && s <= CERTIFICATE_TOLERANCE * scale.max(f64::MIN_POSITIVE) {
+    let s = solution.coefficients()[0] * scale;
+    if solution.status.is_usable() && s <= CERTIFICATE_TOLERANCE * scale {
         Ok(())
     } else {
         Err(format!(

@@ -28,9 +28,9 @@ impl Segment {
 }
 
 /// Nesterov–Todd scaling of one PSD segment: W(Z) = Rᵀ Z R, W⁻ᵀ(S) = R⁻¹ S R⁻ᵀ,
-/// both equal to diag(λ) at the current point.
+/// both equal to diag(λ) at the current point. Only R⁻ᵀ is kept: the
+/// Newton system works in the scaled space and needs W⁻ᵀ and W⁻¹ alone.
 pub(super) struct PsdScaling {
-    r: DMatrix<f64>,
     r_inv_t: DMatrix<f64>,
     lambda: Vec<f64>,
 }
@@ -38,7 +38,6 @@ pub(super) struct PsdScaling {
 impl PsdScaling {
     fn identity(n: usize) -> Self {
         Self {
-            r: DMatrix::identity(n, n),
             r_inv_t: DMatrix::identity(n, n),
             lambda: vec![1.0; n],
         }
@@ -106,36 +105,25 @@ impl SideScaling {
         Some(Self { w, lambda, psd })
     }
 
-    /// v ↦ W v on the side cones (a dual-space vector to the scaled space).
-    pub fn apply_w(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
+    /// v ↦ W⁻ᵀ v: a primal-space vector (a slack or a residual of the
+    /// cone rows) into the scaled space, where the Newton system's cone
+    /// block is the identity.
+    pub fn apply_inverse_wt(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
         self.apply(
             segments,
             v,
-            |i, x| x * self.w[i],
-            |sc, m| sc.r.transpose() * m * &sc.r,
+            |i, x| x / self.w[i],
+            |sc, m| sc.r_inv_t.transpose() * m * &sc.r_inv_t,
         )
     }
 
-    /// v ↦ Wᵀ v (the scaled space back to the primal space).
-    pub fn apply_wt(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
+    /// v ↦ W⁻¹ v: a scaled multiplier direction back to the dual space.
+    pub fn apply_inverse_w(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
         self.apply(
             segments,
             v,
-            |i, x| x * self.w[i],
-            |sc, m| &sc.r * m * sc.r.transpose(),
-        )
-    }
-
-    /// v ↦ (WᵀW)⁻¹ v.
-    pub fn apply_inverse_wtw(&self, segments: &[Segment], v: &DVector<f64>) -> DVector<f64> {
-        self.apply(
-            segments,
-            v,
-            |i, x| x / (self.w[i] * self.w[i]),
-            |sc, m| {
-                let b = &sc.r_inv_t * sc.r_inv_t.transpose();
-                &b * m * &b
-            },
+            |i, x| x / self.w[i],
+            |sc, m| &sc.r_inv_t * m * sc.r_inv_t.transpose(),
         )
     }
 
@@ -165,11 +153,11 @@ impl SideScaling {
     }
 }
 
-/// R = L_s V Λ^{-1/2} and R⁻ᵀ = L_z U Λ^{-1/2} from L_zᵀ L_s = U Λ Vᵀ.
+/// R⁻ᵀ = L_z U Λ^{-1/2} from L_zᵀ L_s = U Λ Vᵀ (and R = L_s V Λ^{-1/2}).
 fn psd_scaling(n: usize, s: &[f64], z: &[f64]) -> Option<PsdScaling> {
     let ls = Cholesky::new(&smat(n, s))?.l().clone();
     let lz = Cholesky::new(&smat(n, z))?.l().clone();
-    let (u, lambda, v) = svd(&(lz.transpose() * &ls))?;
+    let (u, lambda, _) = svd(&(lz.transpose() * &ls))?;
     if lambda
         .iter()
         .any(|&l| l.is_nan() || l <= 0.0 || !l.is_finite())
@@ -181,7 +169,6 @@ fn psd_scaling(n: usize, s: &[f64], z: &[f64]) -> Option<PsdScaling> {
         lambda.iter().map(|l| 1.0 / l.sqrt()),
     ));
     Some(PsdScaling {
-        r: ls * v * &inv_sqrt,
         r_inv_t: lz * u * inv_sqrt,
         lambda,
     })
@@ -368,6 +355,26 @@ pub(super) fn shift_orthant(v: &mut DVector<f64>, other: &mut DVector<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn nt_scaling_maps_slack_and_multiplier_to_lambda() {
+        // s and z: two 2×2 positive definite matrices in svec form.
+        let s = DVector::from_vec(vec![2.0, 0.3 * 2f64.sqrt(), 1.0]);
+        let z = DVector::from_vec(vec![0.5, -0.1 * 2f64.sqrt(), 3.0]);
+        let segments = [Segment {
+            block: 0,
+            offset: 0,
+            psd: Some(2),
+            len: 3,
+        }];
+        let scaling = SideScaling::new(&segments, &s, &z).unwrap();
+        let lambda = DVector::from_column_slice(&scaling.lambda);
+        // W⁻ᵀ s = λ = W z, so W⁻¹ λ = z.
+        let scaled = scaling.apply_inverse_wt(&segments, &s);
+        assert!((scaled - &lambda).amax() < 1e-12);
+        let back = scaling.apply_inverse_w(&segments, &lambda);
+        assert!((back - z).amax() < 1e-12);
+    }
 
     #[test]
     fn step_to_the_boundary() {

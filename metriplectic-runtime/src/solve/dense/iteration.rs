@@ -357,7 +357,8 @@ impl<'a> Step<'a> {
     }
 
     /// The Newton direction for a complementarity target: ξ = λ ⊘ d_s,
-    /// bz = −r_z − Wᵀξ, and back ds = Wᵀ(ξ − W dz).
+    /// bz = −r_z − Wᵀξ (on the side cones in the scaled space,
+    /// W⁻ᵀbz = −W⁻ᵀr_z − ξ), and back ds = Wᵀ(ξ − W dz).
     fn direction(&self, residuals: &Residuals, target: &Target) -> Direction {
         let segments = &self.problem.segments;
         let xi1 = target.s1.component_div(&self.lambda1);
@@ -365,8 +366,14 @@ impl<'a> Step<'a> {
         let xic = jordan_divide(segments, &self.scaling.lambda, &target.sc);
         let bz1 = -&residuals.rz1 - self.w1.component_mul(&xi1);
         let bz2 = -&residuals.rz2 - self.w2.component_mul(&xi2);
-        let bzc = -&residuals.rzc - self.scaling.apply_wt(segments, &xic);
-        let Kkt { y, e, z1, z2, zc } = self.newton.solve(&Kkt {
+        let bzc = -self.scaling.apply_inverse_wt(segments, &residuals.rzc) - &xic;
+        let Kkt {
+            y,
+            e,
+            z1,
+            z2,
+            zc: zc_scaled,
+        } = self.newton.solve(&Kkt {
             y: -&residuals.rx_y,
             e: -&residuals.rx_e,
             z1: bz1,
@@ -375,7 +382,7 @@ impl<'a> Step<'a> {
         });
         let z1_scaled = self.w1.component_mul(&z1);
         let z2_scaled = self.w2.component_mul(&z2);
-        let zc_scaled = self.scaling.apply_w(segments, &zc);
+        let zc = self.scaling.apply_inverse_w(segments, &zc_scaled);
         let mut sc = -&residuals.rzc;
         if self.problem.g.nrows() > 0 {
             sc -= &self.problem.g * &y;

@@ -1,6 +1,13 @@
 //! The Newton system of one interior-point iteration, reduced to the normal
-//! equations on y: Aᵀ D̃ A + Gᵀ (WᵀW)⁻¹ G, factorised once per iteration and
-//! solved for the predictor and the corrector.
+//! equations on y: Aᵀ D̃ A + G̃ᵀ G̃ with G̃ = W⁻ᵀ G, factorised once per
+//! iteration and solved for the predictor and the corrector.
+//!
+//! The side-cone block is written in the scaled space, as CVXOPT does: its
+//! unknown is ũ = W dz and its rows are W⁻ᵀ(G dx) − ũ = W⁻ᵀ b_z, so the
+//! block is −I. Near a face of a PSD cone the Nesterov–Todd scaling W is
+//! ill-conditioned; in the unscaled form −WᵀW dz its residuals lost every
+//! digit and iterative refinement could not converge, which stalled the
+//! method at a relative gap of a few 1e-8.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -10,7 +17,8 @@ use super::cones::SideScaling;
 use super::Reduced;
 
 /// A right-hand side or solution of the KKT system: the x part (y, e) and
-/// the z part (z₁, z₂, z_c).
+/// the z part (z₁, z₂, and the side cones' part in the scaled space: W⁻ᵀ b_z
+/// in a right-hand side, ũ = W dz in a solution).
 #[derive(Clone)]
 pub(super) struct Kkt {
     pub y: DVector<f64>,
@@ -22,6 +30,11 @@ pub(super) struct Kkt {
 
 /// Most iterative-refinement steps per solve.
 const MAX_REFINEMENT: usize = 8;
+/// Most conjugate-gradient steps per Schur-complement solve.
+const MAX_CG: usize = 50;
+/// A Schur-complement solve stops at a residual this small relative to its
+/// right-hand side.
+const SCHUR_TOLERANCE: f64 = 1e-15;
 
 impl Kkt {
     /// The largest |entry|.
@@ -56,144 +69,216 @@ impl Kkt {
 /// Factorised reduced KKT system at one scaling.
 pub(super) struct Newton<'a> {
     problem: &'a Reduced,
-    scaling: &'a SideScaling,
+    /// G̃ = W⁻ᵀ G, the side-cone rows in the scaled space.
+    scaled_g: DMatrix<f64>,
     /// z/s of the two L1 orthants.
     d1: DVector<f64>,
     d2: DVector<f64>,
+    /// D̃ = 4 d₁d₂/(d₁ + d₂), the L1 block's weight in the Schur complement.
+    weights: DVector<f64>,
     schur: ScaledCholesky,
 }
 
 impl<'a> Newton<'a> {
-    /// Forms and factorises Aᵀ D̃ A + Gᵀ (WᵀW)⁻¹ G, with D̃ = 4 d₁d₂/(d₁ + d₂).
+    /// Forms and factorises Aᵀ D̃ A + G̃ᵀ G̃, with D̃ = 4 d₁d₂/(d₁ + d₂).
     pub fn new(
         problem: &'a Reduced,
-        scaling: &'a SideScaling,
+        scaling: &SideScaling,
         d1: DVector<f64>,
         d2: DVector<f64>,
     ) -> Option<Self> {
-        let schur = schur_complement(problem, scaling, &d1, &d2);
+        let scaled_g = scaled_rows(problem, scaling);
+        let weights = DVector::from_iterator(
+            d1.len(),
+            d1.iter().zip(d2.iter()).map(|(a, b)| 4.0 * a * b / (a + b)),
+        );
+        let schur = schur_complement(problem, &scaled_g, &weights);
         let schur = factorise(schur)?;
         Some(Self {
             problem,
-            scaling,
+            scaled_g,
             d1,
             d2,
+            weights,
             schur,
         })
     }
 
-    /// Solves [0 Gᵀ; G −WᵀW][dx; dz] = [bx; bz] for x = (y, e), z = (z₁, z₂, z_c),
-    /// with iterative refinement on the unreduced system (the reduction
-    /// squares the condition number near the optimum): at least two steps,
-    /// and more while each still halves the residual, up to
-    /// `MAX_REFINEMENT` — near a face of the PSD cones (a rank-deficient
-    /// Gram matrix at the optimum) two steps can leave the direction
-    /// inaccurate enough to stall the method.
+    /// S v = Aᵀ D̃ A v + G̃ᵀ G̃ v, without forming S.
+    fn schur_product(&self, v: &DVector<f64>) -> DVector<f64> {
+        let p = self.problem;
+        let mut out = p.a.tr_mul(&(&p.a * v).component_mul(&self.weights));
+        if self.scaled_g.nrows() > 0 {
+            out += self.scaled_g.tr_mul(&(&self.scaled_g * v));
+        }
+        out
+    }
+
+    /// dy with S dy = b: conjugate gradients on S preconditioned by the
+    /// factor of the formed S. When the data are fitted exactly, every L1
+    /// residual is active and D̃ spans many orders of magnitude; the formed
+    /// S then loses the directions only the side cones determine, and
+    /// iterative refinement with its factor diverges, but as a
+    /// preconditioner it still clusters the spectrum and CG converges in a
+    /// few steps. Usually the factor's solution, or one CG step from it,
+    /// is already at the product's rounding level.
+    fn solve_schur(&self, b: &DVector<f64>, floor: f64) -> DVector<f64> {
+        let mut x = self.schur.solve(b);
+        let mut r = b - self.schur_product(&x);
+        // Below the rounding error of the product S x there is nothing to gain.
+        let floor = floor.max(f64::EPSILON * self.schur.largest * x.amax());
+        let mut best = (r.amax(), x.clone());
+        if best.0 <= floor || best.0.is_nan() {
+            return x;
+        }
+        let mut z = self.schur.solve(&r);
+        let mut direction = z.clone();
+        let mut rz = r.dot(&z);
+        let mut since_best = 0;
+        for _ in 0..MAX_CG {
+            let q = self.schur_product(&direction);
+            let curvature = direction.dot(&q);
+            if !(curvature > 0.0 && rz > 0.0) {
+                break;
+            }
+            let alpha = rz / curvature;
+            x.axpy(alpha, &direction, 1.0);
+            r.axpy(-alpha, &q, 1.0);
+            let size = r.amax();
+            if size < best.0 {
+                best = (size, x.clone());
+                since_best = 0;
+            } else {
+                since_best += 1;
+            }
+            if size <= floor || size.is_nan() || since_best >= 3 {
+                break;
+            }
+            z = self.schur.solve(&r);
+            let rz_next = r.dot(&z);
+            direction = &z + &direction * (rz_next / rz);
+            rz = rz_next;
+        }
+        best.1
+    }
+
+    /// Solves [0 G̃ᵀ; G̃ −I][dx; dz̃] = [bx; bz̃] for x = (y, e), z̃ = (z₁, z₂, ũ)
+    /// (the L1 orthants' blocks unscaled, −diag(s/z), the side cones' scaled),
+    /// through the Schur complement on y, then iterative refinement on the
+    /// unreduced system while each step at least halves the residual (a
+    /// step that does not improve it is discarded), up to `MAX_REFINEMENT`.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
-        let mut solution = self.solve_reduced(rhs);
+        let (mut solution, floor) = self.solve_reduced(rhs, None);
         let mut residual = rhs.minus(&self.apply(&solution));
         let mut size = residual.amax();
-        for step in 0..MAX_REFINEMENT {
-            let candidate = solution.plus(&self.solve_reduced(&residual));
+        for _ in 0..MAX_REFINEMENT {
+            if size == 0.0 || size.is_nan() {
+                break;
+            }
+            let candidate = solution.plus(&self.solve_reduced(&residual, Some(floor)).0);
             let next = rhs.minus(&self.apply(&candidate));
             let next_size = next.amax();
-            // NaN compares false: a non-finite refinement is never "halved".
-            let halved = next_size < 0.5 * size;
-            if step < 2 || halved {
-                (solution, residual, size) = (candidate, next, next_size);
+            // A non-finite step is never kept.
+            if next_size >= size || next_size.is_nan() {
+                break;
             }
-            if (step >= 1 && !halved) || size == 0.0 {
+            let halved = next_size < 0.5 * size;
+            (solution, residual, size) = (candidate, next, next_size);
+            if !halved {
                 break;
             }
         }
         solution
     }
 
-    /// The unreduced KKT operator [0 Gᵀ; G −WᵀW] applied to (dx, dz).
+    /// The unreduced KKT operator applied to (dx, dz̃).
     fn apply(&self, v: &Kkt) -> Kkt {
         let p = self.problem;
         let ay = &p.a * &v.y;
         let mut y = p.a.tr_mul(&(&v.z2 - &v.z1));
+        let mut zc = DVector::zeros(0);
         if p.g.nrows() > 0 {
-            y += p.g.tr_mul(&v.zc);
+            y += self.scaled_g.tr_mul(&v.zc);
+            zc = &self.scaled_g * &v.y - &v.zc;
         }
-        let wtw_zc = self
-            .scaling
-            .apply_wt(&p.segments, &self.scaling.apply_w(&p.segments, &v.zc));
         Kkt {
             y,
             e: -&v.z1 - &v.z2,
             z1: -&ay - &v.e - v.z1.component_div(&self.d1),
             z2: &ay - &v.e - v.z2.component_div(&self.d2),
-            zc: &p.g * &v.y - wtw_zc,
+            zc,
         }
     }
 
     /// One solve through the Schur complement on y.
-    fn solve_reduced(&self, b: &Kkt) -> Kkt {
+    /// One solve through the Schur complement on y; the Schur solve stops at
+    /// a residual of `floor` (by default `SCHUR_TOLERANCE` times its
+    /// right-hand side), returned for the refinement steps.
+    fn solve_reduced(&self, b: &Kkt, floor: Option<f64>) -> (Kkt, f64) {
         let p = self.problem;
         let d1b = self.d1.component_mul(&b.z1);
         let d2b = self.d2.component_mul(&b.z2);
-        let dcb = self.scaling.apply_inverse_wtw(&p.segments, &b.zc);
         let sum = &self.d1 + &self.d2;
         let diff = &self.d1 - &self.d2;
         let rhs_e = &b.e - &d1b - &d2b;
         let ratio = diff.component_div(&sum);
-        let mut rhs_y =
-            &b.y + p.a.tr_mul(&(&d2b - &d1b)) - p.a.tr_mul(&ratio.component_mul(&rhs_e));
+        let mut rhs_y = &b.y + p.a.tr_mul(&(&d2b - &d1b - ratio.component_mul(&rhs_e)));
         if p.g.nrows() > 0 {
-            rhs_y += p.g.tr_mul(&dcb);
+            rhs_y += self.scaled_g.tr_mul(&b.zc);
         }
-        let dy = self.schur.solve(&rhs_y);
+        let floor = floor.unwrap_or(SCHUR_TOLERANCE * rhs_y.amax());
+        let dy = self.solve_schur(&rhs_y, floor);
         let ady = &p.a * &dy;
         let de = (&rhs_e - diff.component_mul(&ady)).component_div(&sum);
-        // dz = (WᵀW)⁻¹ (G dx − bz) with G = [[−A, −I]; [A, −I]; [G_c, 0]].
+        // dz = D (G dx − bz) on the orthants, with G = [[−A, −I]; [A, −I]],
+        // and ũ = G̃ dy − bz̃ on the side cones.
         let z1 = self.d1.component_mul(&(-&ady - &de - &b.z1));
         let z2 = self.d2.component_mul(&(&ady - &de - &b.z2));
         let zc = if p.g.nrows() > 0 {
-            self.scaling
-                .apply_inverse_wtw(&p.segments, &(&p.g * &dy - &b.zc))
+            &self.scaled_g * &dy - &b.zc
         } else {
             DVector::zeros(0)
         };
-        Kkt {
+        let solution = Kkt {
             y: dy,
             e: de,
             z1,
             z2,
             zc,
-        }
+        };
+        (solution, floor)
     }
 }
 
-/// Aᵀ D̃ A + Gᵀ (WᵀW)⁻¹ G, symmetrised.
+/// G̃ = W⁻ᵀ G, column by column.
+fn scaled_rows(problem: &Reduced, scaling: &SideScaling) -> DMatrix<f64> {
+    let (m, k) = problem.g.shape();
+    let mut scaled = DMatrix::zeros(m, k);
+    if m > 0 {
+        for (j, column) in problem.g.column_iter().enumerate() {
+            let mapped = scaling.apply_inverse_wt(&problem.segments, &column.into_owned());
+            scaled.set_column(j, &mapped);
+        }
+    }
+    scaled
+}
+
+/// Aᵀ D̃ A + G̃ᵀ G̃, both Gram products (symmetric by construction).
 fn schur_complement(
     problem: &Reduced,
-    scaling: &SideScaling,
-    d1: &DVector<f64>,
-    d2: &DVector<f64>,
+    scaled_g: &DMatrix<f64>,
+    weights: &DVector<f64>,
 ) -> DMatrix<f64> {
-    let k = problem.a.ncols();
-    let weights = DVector::from_iterator(
-        d1.len(),
-        d1.iter()
-            .zip(d2.iter())
-            .map(|(a, b)| (4.0 * a * b / (a + b)).sqrt()),
-    );
+    let weights = weights.map(f64::sqrt);
     let mut scaled = problem.a.clone();
     for mut column in scaled.column_iter_mut() {
         column.component_mul_assign(&weights);
     }
     let mut schur = gram(&scaled);
-    if problem.g.nrows() > 0 {
-        let mut hg = DMatrix::zeros(problem.g.nrows(), k);
-        for (j, column) in problem.g.column_iter().enumerate() {
-            let mapped = scaling.apply_inverse_wtw(&problem.segments, &column.into_owned());
-            hg.set_column(j, &mapped);
-        }
-        schur += problem.g.tr_mul(&hg);
+    if scaled_g.nrows() > 0 {
+        schur += gram(scaled_g);
     }
-    (&schur + schur.transpose()) * 0.5
+    schur
 }
 
 /// A Cholesky factorisation of D^{-1/2} M D^{-1/2}, D = diag(M): the
@@ -204,6 +289,8 @@ struct ScaledCholesky {
     factor: Cholesky,
     /// D^{-1/2}.
     scale: DVector<f64>,
+    /// The largest diagonal entry of M.
+    largest: f64,
 }
 
 impl ScaledCholesky {
@@ -243,7 +330,11 @@ fn factorise(mut schur: DMatrix<f64>) -> Option<ScaledCholesky> {
             shifted[(i, i)] += shift;
         }
         if let Some(factor) = Cholesky::new(&shifted) {
-            return Some(ScaledCholesky { factor, scale });
+            return Some(ScaledCholesky {
+                factor,
+                scale,
+                largest,
+            });
         }
         shift = if shift == 0.0 { 1e-13 } else { shift * 1e3 };
     }
