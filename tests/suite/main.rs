@@ -20,6 +20,7 @@
 //! | `reproduction`, `reproduction_interrupt` | the paper reproductions end to end |
 //! | `from_csv` | identification from a trajectory CSV, the `from_csv` example's pipeline |
 //! | `region_certificates` | state-dependent metrics certified on a region |
+//! | `oversized_bases` | entropy bases larger than the truth needs |
 //! | `plot` | figures |
 
 mod common;
@@ -40,6 +41,7 @@ mod macro_errors;
 mod metric_positivity;
 mod metric_search;
 mod model_files;
+mod oversized_bases;
 mod plot;
 mod region_certificates;
 mod reproduction;
