@@ -33,8 +33,8 @@ use crate::system::{metric_pair_index, CertificateMode, MetriplecticSystem, Regi
 /// Relative tolerance of a constant block's smallest eigenvalue: rounding
 /// in a metric search's Gram matrix is ~1e-16 of its scale.
 const EIGENVALUE_TOLERANCE: f64 = 1e-10;
-/// Relative tolerance of the certificate program's optimum |s|, at the
-/// interior-point method's accuracy.
+/// Relative tolerance of the certificate program's optimum |s| (the program
+/// itself runs at the far tighter `certificate_settings`).
 const CERTIFICATE_TOLERANCE: f64 = 1e-8;
 /// The certificate program's solver settings: tolerances far below
 /// `CERTIFICATE_TOLERANCE`. A metric from a search sits on the boundary of
