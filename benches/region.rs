@@ -74,17 +74,11 @@ fn median(mut values: Vec<f64>) -> f64 {
     values[values.len() / 2]
 }
 
-/// Median wall time of `f` over `repeats` runs.
-fn time(repeats: usize, mut f: impl FnMut() -> f64) -> f64 {
-    median(
-        (0..repeats)
-            .map(|_| {
-                let start = Instant::now();
-                black_box(f());
-                start.elapsed().as_secs_f64()
-            })
-            .collect(),
-    )
+/// Wall time of one run of `f`.
+fn time(f: impl Fn() -> f64) -> f64 {
+    let start = Instant::now();
+    black_box(f());
+    start.elapsed().as_secs_f64()
 }
 
 fn main() {
@@ -138,8 +132,8 @@ fn main() {
     for (name, plain, region) in rows {
         let (mut a, mut b) = (Vec::new(), Vec::new());
         for _ in 0..repeats {
-            a.push(time(1, &plain));
-            b.push(time(1, &region));
+            a.push(time(&plain));
+            b.push(time(&region));
         }
         let (a, b) = (median(a), median(b));
         println!(
