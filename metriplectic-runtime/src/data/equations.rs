@@ -12,6 +12,8 @@
 //! equation's rows from the system's per-sample blocks, so both kinds of
 //! data run through the same subproblems and the same joint step.
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 use crate::system::MetriplecticSystem;
 
@@ -127,50 +129,59 @@ impl<'a> Equations<'a> {
     }
 
     /// Rows and targets of every equation, n rows each: Σ w·block(x) and
-    /// y − Σ w·drift(x), from the per-sample block `block(j, x, rows,
-    /// drift)` of width `width`. Each sample's block is computed once.
-    pub fn assemble(
+    /// y − Σ w·drift(x), from the per-sample block `block(scratch, j, x,
+    /// rows, drift)` of width `width`. Each sample's block is computed once,
+    /// in parallel across rayon's pool with one `scratch()` per worker;
+    /// every block is computed alone, so the bits do not depend on the
+    /// thread count. On failure the error of the first failing sample is
+    /// returned.
+    pub fn assemble<T>(
         &self,
         width: usize,
-        mut block: impl FnMut(usize, &[f64], &mut [f64], &mut [f64]) -> Result<()>,
+        scratch: impl Fn() -> T + Sync + Send,
+        block: impl Fn(&mut T, usize, &[f64], &mut [f64], &mut [f64]) -> Result<()> + Sync + Send,
     ) -> Result<(Vec<f64>, Vec<f64>)> {
         let n = self.dim;
         let equations = self.len();
         let mut rows = vec![0.0; equations * n * width];
         let mut targets = self.targets.to_vec();
-        let mut drift = vec![0.0; n];
+        // Per-sample blocks and drifts, in parallel; the first error by sample.
+        let fill = |blocks: &mut [f64], drifts: &mut [f64]| -> Result<()> {
+            let failure = blocks
+                .par_chunks_mut((n * width).max(1))
+                .zip(drifts.par_chunks_mut(n.max(1)))
+                .enumerate()
+                .map_init(&scratch, |scratch, (j, (out, drift))| {
+                    block(scratch, j, self.state(j), out, drift)
+                        .err()
+                        .map(|error| (j, error))
+                })
+                .flatten()
+                .min_by_key(|(j, _)| *j);
+            failure.map_or(Ok(()), |(_, error)| Err(error))
+        };
         match self.terms {
             None => {
-                for e in 0..equations {
-                    let out = &mut rows[e * n * width..(e + 1) * n * width];
-                    block(e, self.state(e), out, &mut drift)?;
-                    for (t, d) in targets[e * n..(e + 1) * n].iter_mut().zip(&drift) {
-                        *t -= d;
-                    }
-                }
+                let mut drifts = vec![0.0; equations * n];
+                fill(&mut rows, &mut drifts)?;
+                targets.iter_mut().zip(&drifts).for_each(|(t, d)| *t -= d);
             }
             Some(_) => {
                 let samples = self.sample_count();
                 let mut blocks = vec![0.0; samples * n * width];
                 let mut drifts = vec![0.0; samples * n];
-                for j in 0..samples {
-                    block(
-                        j,
-                        self.state(j),
-                        &mut blocks[j * n * width..(j + 1) * n * width],
-                        &mut drifts[j * n..(j + 1) * n],
-                    )?;
-                }
-                for e in 0..equations {
-                    let out = &mut rows[e * n * width..(e + 1) * n * width];
-                    let target = &mut targets[e * n..(e + 1) * n];
-                    for (j, w) in self.terms_of(e) {
-                        let source = &blocks[j * n * width..(j + 1) * n * width];
-                        out.iter_mut().zip(source).for_each(|(o, s)| *o += w * s);
-                        let source = &drifts[j * n..(j + 1) * n];
-                        target.iter_mut().zip(source).for_each(|(t, d)| *t -= w * d);
-                    }
-                }
+                fill(&mut blocks, &mut drifts)?;
+                rows.par_chunks_mut((n * width).max(1))
+                    .zip(targets.par_chunks_mut(n.max(1)))
+                    .enumerate()
+                    .for_each(|(e, (out, target))| {
+                        for (j, w) in self.terms_of(e) {
+                            let source = &blocks[j * n * width..(j + 1) * n * width];
+                            out.iter_mut().zip(source).for_each(|(o, s)| *o += w * s);
+                            let source = &drifts[j * n..(j + 1) * n];
+                            target.iter_mut().zip(source).for_each(|(t, d)| *t -= w * d);
+                        }
+                    });
             }
         }
         Ok((rows, targets))

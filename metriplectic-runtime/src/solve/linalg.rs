@@ -7,15 +7,26 @@
 //! returned NaN on a valid, well-scaled 68×68 Gram matrix (met in a joint
 //! step of the 2-D system). Parallel work runs on rayon's global pool, so
 //! `RAYON_NUM_THREADS` sets the thread count.
+//!
+//! Results do not depend on the thread count: the products with the
+//! regression block ([`RowMajor`]) split their rows into fixed blocks and
+//! add the blocks' partial sums in a fixed order, and faer's matrix
+//! product and Cholesky split only the output, never a sum, across threads
+//! (checked bit for bit in the tests below and in `tests/suite/determinism.rs`).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::triangular::BlockStructure;
 use faer::{Accum, MatMut, MatRef, Par, Side};
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 /// Below this many multiply-adds a kernel runs on one thread: splitting
 /// costs more than it saves.
+#[cfg(not(test))]
 const PARALLEL_WORK: f64 = 1e7;
+/// Small in unit tests, so that they run the parallel paths.
+#[cfg(test)]
+const PARALLEL_WORK: f64 = 1e4;
 
 /// The parallelism for a kernel of `work` multiply-adds.
 fn parallelism(work: f64) -> Par {
@@ -52,12 +63,248 @@ pub(crate) fn gram(a: &DMatrix<f64>) -> DMatrix<f64> {
         1.0,
         parallelism(work),
     );
-    for j in 0..k {
-        for i in 0..j {
-            out[(i, j)] = out[(j, i)];
+    symmetrise_lower(&mut out);
+    out
+}
+
+/// Rows per block of the products with a [`RowMajor`] matrix: a block of a
+/// thousand columns (8 MB) stays in the last-level cache while it is scaled
+/// and multiplied, and a few blocks give every core work.
+const ROW_BLOCK: usize = 1024;
+
+/// Rows per slice of the fused pass [`RowMajor::mul_and_tr_mul`]: a slice
+/// of a thousand columns (256 KB) stays in the core's own cache between
+/// its two uses.
+const FUSED_ROWS: usize = 32;
+
+/// A dense r × k matrix stored by rows: the regression block of an L1
+/// problem, kept in the layout the searches assemble it in (one row per
+/// sample and component), so the solver needs no transposed copy.
+///
+/// Its products are the memory-bound half of an interior-point iteration
+/// (A v and Aᵀ w read the whole matrix once each) and the compute-bound
+/// half (Aᵀ D A, blocked so that no scaled copy of A is ever formed).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct RowMajor {
+    rows: usize,
+    columns: usize,
+    data: Vec<f64>,
+}
+
+impl RowMajor {
+    /// `rows` × `columns` from row-major `data` (`rows · columns` values).
+    pub(crate) fn from_rows(rows: usize, columns: usize, data: Vec<f64>) -> Self {
+        assert_eq!(data.len(), rows * columns, "row-major data of the shape");
+        Self {
+            rows,
+            columns,
+            data,
         }
     }
-    out
+
+    /// The row-major copy of a column-major matrix.
+    #[cfg(test)]
+    pub(crate) fn from_matrix(m: &DMatrix<f64>) -> Self {
+        let (rows, columns) = m.shape();
+        let data = (0..rows)
+            .flat_map(|i| (0..columns).map(move |j| m[(i, j)]))
+            .collect();
+        Self::from_rows(rows, columns, data)
+    }
+
+    pub(crate) fn ncols(&self) -> usize {
+        self.columns
+    }
+
+    /// Row i.
+    pub(crate) fn row(&self, i: usize) -> &[f64] {
+        &self.data[i * self.columns..(i + 1) * self.columns]
+    }
+
+    /// Block b: rows [b·`ROW_BLOCK`, (b + 1)·`ROW_BLOCK`) ∩ [0, r).
+    fn block(&self, b: usize) -> MatRef<'_, f64> {
+        let first = b * ROW_BLOCK;
+        let rows = ROW_BLOCK.min(self.rows - first);
+        let data = &self.data[first * self.columns..(first + rows) * self.columns];
+        MatRef::from_row_major_slice(data, rows, self.columns)
+    }
+
+    /// `f` of every block, in block order; in parallel when the matrix is
+    /// large enough. Each block's arithmetic is the same either way.
+    fn map_blocks<T: Send>(&self, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+        let blocks = self.rows.div_ceil(ROW_BLOCK);
+        if self.data.len() as f64 >= PARALLEL_WORK && rayon::current_num_threads() > 1 {
+            (0..blocks).into_par_iter().map(f).collect()
+        } else {
+            (0..blocks).map(f).collect()
+        }
+    }
+
+    /// A v: each entry is one row's dot product, so no sum crosses blocks.
+    pub(crate) fn mul(&self, v: &DVector<f64>) -> DVector<f64> {
+        assert_eq!(v.len(), self.columns, "A v with v of A's width");
+        let v = MatRef::from_column_major_slice(v.as_slice(), self.columns, 1);
+        let parts = self.map_blocks(|b| {
+            let block = self.block(b);
+            let mut out = vec![0.0; block.nrows()];
+            faer::linalg::matmul::matmul(
+                MatMut::from_column_major_slice_mut(&mut out, block.nrows(), 1),
+                Accum::Replace,
+                block,
+                v,
+                1.0,
+                Par::Seq,
+            );
+            out
+        });
+        DVector::from_iterator(self.rows, parts.into_iter().flatten())
+    }
+
+    /// Aᵀ w: the blocks' partial sums, added in block order.
+    pub(crate) fn tr_mul(&self, w: &DVector<f64>) -> DVector<f64> {
+        assert_eq!(w.len(), self.rows, "Aᵀ w with w of A's height");
+        let columns = self.columns;
+        let parts = self.map_blocks(|b| {
+            let block = self.block(b);
+            let first = b * ROW_BLOCK;
+            let w = &w.as_slice()[first..first + block.nrows()];
+            let mut out = vec![0.0; columns];
+            faer::linalg::matmul::matmul(
+                MatMut::from_column_major_slice_mut(&mut out, columns, 1),
+                Accum::Replace,
+                block.transpose(),
+                MatRef::from_column_major_slice(w, w.len(), 1),
+                1.0,
+                Par::Seq,
+            );
+            out
+        });
+        let mut out = DVector::zeros(columns);
+        for part in parts {
+            out.iter_mut().zip(part).for_each(|(o, p)| *o += p);
+        }
+        out
+    }
+
+    /// (A v, Aᵀ w) in one pass over A: each slice of `FUSED_ROWS` rows is
+    /// read from memory once and used twice from the cache.
+    pub(crate) fn mul_and_tr_mul(
+        &self,
+        v: &DVector<f64>,
+        w: &DVector<f64>,
+    ) -> (DVector<f64>, DVector<f64>) {
+        assert_eq!(v.len(), self.columns, "A v with v of A's width");
+        assert_eq!(w.len(), self.rows, "Aᵀ w with w of A's height");
+        let columns = self.columns;
+        let v = MatRef::from_column_major_slice(v.as_slice(), columns, 1);
+        let parts = self.map_blocks(|b| {
+            let block = self.block(b);
+            let first = b * ROW_BLOCK;
+            let mut product = vec![0.0; block.nrows()];
+            let mut partial = vec![0.0; columns];
+            let mut start = 0;
+            while start < block.nrows() {
+                let rows = FUSED_ROWS.min(block.nrows() - start);
+                let slice = block.subrows(start, rows);
+                faer::linalg::matmul::matmul(
+                    MatMut::from_column_major_slice_mut(&mut product[start..start + rows], rows, 1),
+                    Accum::Replace,
+                    slice,
+                    v,
+                    1.0,
+                    Par::Seq,
+                );
+                let w = &w.as_slice()[first + start..first + start + rows];
+                faer::linalg::matmul::matmul(
+                    MatMut::from_column_major_slice_mut(&mut partial, columns, 1),
+                    if start == 0 {
+                        Accum::Replace
+                    } else {
+                        Accum::Add
+                    },
+                    slice.transpose(),
+                    MatRef::from_column_major_slice(w, rows, 1),
+                    1.0,
+                    Par::Seq,
+                );
+                start += rows;
+            }
+            (product, partial)
+        });
+        let mut product = Vec::with_capacity(self.rows);
+        let mut sum = DVector::zeros(columns);
+        for (part, partial) in parts {
+            product.extend(part);
+            sum.iter_mut().zip(partial).for_each(|(o, p)| *o += p);
+        }
+        (DVector::from_vec(product), sum)
+    }
+
+    /// A B, by rows (B column-major, k × k′).
+    pub(crate) fn mul_matrix(&self, b: &DMatrix<f64>) -> RowMajor {
+        assert_eq!(b.nrows(), self.columns, "A B with B of A's width");
+        let width = b.ncols();
+        let mut data = vec![0.0; self.rows * width];
+        faer::linalg::matmul::matmul(
+            MatMut::from_row_major_slice_mut(&mut data, self.rows, width),
+            Accum::Replace,
+            MatRef::from_row_major_slice(&self.data, self.rows, self.columns),
+            view(b),
+            1.0,
+            parallelism(self.data.len() as f64 * width as f64),
+        );
+        RowMajor::from_rows(self.rows, width, data)
+    }
+
+    /// Aᵀ diag(d) A for d ≥ 0, symmetric (both triangles filled): each block
+    /// of rows is scaled by √d into one reused buffer and its Gram product
+    /// added to the lower triangle, in block order.
+    pub(crate) fn weighted_gram(&self, d: &DVector<f64>) -> DMatrix<f64> {
+        assert_eq!(d.len(), self.rows, "one weight per row");
+        let k = self.columns;
+        let mut out = DMatrix::zeros(k, k);
+        let mut buffer = vec![0.0; ROW_BLOCK.min(self.rows) * k];
+        for (index, block) in self.data.chunks(ROW_BLOCK * k.max(1)).enumerate() {
+            let rows = block.len() / k.max(1);
+            let scaled = &mut buffer[..rows * k];
+            let weights = &d.as_slice()[index * ROW_BLOCK..index * ROW_BLOCK + rows];
+            for ((target, row), weight) in scaled
+                .chunks_exact_mut(k.max(1))
+                .zip(block.chunks_exact(k.max(1)))
+                .zip(weights)
+            {
+                let root = weight.sqrt();
+                target.iter_mut().zip(row).for_each(|(t, a)| *t = root * a);
+            }
+            let scaled = MatRef::from_row_major_slice(scaled, rows, k);
+            faer::linalg::matmul::triangular::matmul(
+                view_mut(&mut out),
+                BlockStructure::TriangularLower,
+                if index == 0 {
+                    Accum::Replace
+                } else {
+                    Accum::Add
+                },
+                scaled.transpose(),
+                BlockStructure::Rectangular,
+                scaled,
+                BlockStructure::Rectangular,
+                1.0,
+                parallelism(rows as f64 * (k * k) as f64 / 2.0),
+            );
+        }
+        symmetrise_lower(&mut out);
+        out
+    }
+}
+
+/// Copies the lower triangle of a square matrix onto its upper triangle.
+fn symmetrise_lower(m: &mut DMatrix<f64>) {
+    for j in 0..m.ncols() {
+        for i in 0..j {
+            m[(i, j)] = m[(j, i)];
+        }
+    }
 }
 
 /// A Cholesky factorisation L Lᵀ of a symmetric positive definite matrix.
@@ -176,6 +423,75 @@ mod tests {
         assert!((&g * &x - &b).amax() < 1e-12);
         assert!((factor.l() * factor.l().transpose() - &g).amax() < 1e-12);
         assert!(Cholesky::new(&DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0])).is_none());
+    }
+
+    /// A pseudo-random r × k matrix (a fixed linear congruential sequence).
+    fn pseudo_random(rows: usize, columns: usize, seed: u64) -> DMatrix<f64> {
+        let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+        DMatrix::from_fn(rows, columns, |_, _| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        })
+    }
+
+    /// Every product of a matrix spanning several row blocks, large enough
+    /// to run in parallel.
+    fn row_major_products(
+        a: &RowMajor,
+        v: &DVector<f64>,
+        w: &DVector<f64>,
+        d: &DVector<f64>,
+    ) -> Vec<DMatrix<f64>> {
+        let (av, atw) = a.mul_and_tr_mul(v, w);
+        let b = pseudo_random(a.ncols(), 3, 9);
+        let ab = a.mul_matrix(&b);
+        vec![
+            DMatrix::from_column_slice(a.rows, 1, a.mul(v).as_slice()),
+            DMatrix::from_column_slice(a.columns, 1, a.tr_mul(w).as_slice()),
+            DMatrix::from_column_slice(a.rows, 1, av.as_slice()),
+            DMatrix::from_column_slice(a.columns, 1, atw.as_slice()),
+            a.weighted_gram(d),
+            DMatrix::from_row_slice(a.rows, 3, &ab.data),
+        ]
+    }
+
+    #[test]
+    fn row_major_products_match_nalgebra_and_the_thread_count() {
+        let (rows, columns) = (2 * ROW_BLOCK + 77, 90);
+        let m = pseudo_random(rows, columns, 1);
+        let a = RowMajor::from_matrix(&m);
+        assert!(a.data.len() as f64 >= PARALLEL_WORK);
+        let v = DVector::from_column_slice(pseudo_random(columns, 1, 2).as_slice());
+        let w = DVector::from_column_slice(pseudo_random(rows, 1, 3).as_slice());
+        let d = w.map(|x| x.abs() + 0.1);
+        let products = row_major_products(&a, &v, &w, &d);
+        let mut scaled = m.clone();
+        for (mut row, weight) in scaled.row_iter_mut().zip(d.iter()) {
+            row *= *weight;
+        }
+        let b = pseudo_random(columns, 3, 9);
+        let column = |v: DVector<f64>| DMatrix::from_column_slice(v.len(), 1, v.as_slice());
+        let expected = [
+            column(&m * &v),
+            column(m.tr_mul(&w)),
+            column(&m * &v),
+            column(m.tr_mul(&w)),
+            m.transpose() * &scaled,
+            &m * &b,
+        ];
+        for (got, want) in products.iter().zip(expected.iter()) {
+            let error = (got - want).amax() / want.amax();
+            assert!(error < 1e-13, "relative error {error}");
+        }
+        // Same bits on one thread as on the global pool.
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| row_major_products(&a, &v, &w, &d));
+        assert_eq!(one, products);
     }
 
     #[test]

@@ -83,12 +83,15 @@ pub(crate) fn entropy_regression<S: MetriplecticSystem>(
 ) -> Result<Regression> {
     let n = S::DIM;
     let p = S::entropy_coefficient_count();
-    let mut k = vec![0.0; n * n];
-    let (rows, target) = data.equations().assemble(p, |j, x, block, drift| {
-        S::metric_value(x, metric, &mut k);
-        S::entropy_block(x, &k, block, drift);
-        check_sample_rows(j, x, block, drift)
-    })?;
+    let (rows, target) = data.equations().assemble(
+        p,
+        || vec![0.0; n * n],
+        |k, j, x, block, drift| {
+            S::metric_value(x, metric, k);
+            S::entropy_block(x, k, block, drift);
+            check_sample_rows(j, x, block, drift)
+        },
+    )?;
     Ok(Regression {
         width: p,
         rows,

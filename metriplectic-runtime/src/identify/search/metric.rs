@@ -90,15 +90,20 @@ pub(crate) fn metric_regression<S: MetriplecticSystem>(
 ) -> Result<Regression> {
     let n = S::DIM;
     let width = S::metric_coefficient_count();
-    let mut gradient = vec![0.0; n];
-    let mut grad_h = vec![0.0; n];
-    let (rows, target) = data.equations().assemble(width, |j, x, block, drift| {
-        S::entropy_gradient(x, entropy, &mut gradient);
-        S::hamiltonian_gradient(x, &mut grad_h);
-        gradient.iter_mut().zip(&grad_h).for_each(|(g, h)| *g += h);
-        S::metric_block(x, &gradient, block, drift);
-        check_sample_rows(j, x, block, drift)
-    })?;
+    let (rows, target) = data.equations().assemble(
+        width,
+        || (vec![0.0; n], vec![0.0; n]),
+        |(gradient, grad_h), j, x, block, drift| {
+            S::entropy_gradient(x, entropy, gradient);
+            S::hamiltonian_gradient(x, grad_h);
+            gradient
+                .iter_mut()
+                .zip(grad_h.iter())
+                .for_each(|(g, h)| *g += h);
+            S::metric_block(x, gradient, block, drift);
+            check_sample_rows(j, x, block, drift)
+        },
+    )?;
     Ok(Regression {
         width,
         rows,

@@ -40,9 +40,15 @@ pub(super) struct Scaling {
 }
 
 impl Scaling {
-    /// Computes the scaling of the problem and applies it to `regression`
-    /// and `split` in place.
-    pub fn equilibrate(regression: &mut Regression, split: &mut Split) -> Self {
+    /// Computes the scaling of the problem, applies it to `split` in place
+    /// and returns it with the scaled copy of `regression`.
+    ///
+    /// The regression rows are only ever scaled as a whole and by column,
+    /// so their column norms follow from the unscaled ones and the scales:
+    /// the passes work on k numbers, and the r × k block is read twice in
+    /// all (once for its norms, once to write the scaled copy) instead of
+    /// twice per pass.
+    pub fn equilibrate(regression: &Regression, split: &mut Split) -> (Self, Regression) {
         let n_vars = split.e.ncols();
         let width = regression.width;
         let group = variable_groups(split, n_vars);
@@ -58,8 +64,12 @@ impl Scaling {
             / regression.target.len().max(1) as f64;
         if mean > 0.0 && mean.is_finite() {
             scaling.objective = 1.0 / mean;
-            regression.rows.iter_mut().for_each(|a| *a /= mean);
-            regression.target.iter_mut().for_each(|t| *t /= mean);
+        }
+        let mut regression_norms = vec![0.0_f64; width];
+        for row in regression.rows.chunks_exact(width.max(1)) {
+            for (norm, a) in regression_norms.iter_mut().zip(row) {
+                *norm = norm.max(a.abs());
+            }
         }
         for _ in 0..PASSES {
             // Constraint rows.
@@ -87,30 +97,43 @@ impl Scaling {
             }
 
             // Variables, one factor per group.
-            let mut norms = vec![0.0_f64; n_vars];
-            for row in regression.rows.chunks_exact(width.max(1)) {
-                for (norm, a) in norms.iter_mut().zip(row) {
-                    *norm = norm.max(a.abs());
-                }
-            }
             let mut group_norm = vec![0.0_f64; n_vars];
-            for (c, norm) in norms.into_iter().enumerate() {
-                let norm = norm
+            for c in 0..n_vars {
+                let regression_norm = regression_norms
+                    .get(c)
+                    .map_or(0.0, |norm| norm * scaling.objective * scaling.columns[c]);
+                let norm = regression_norm
                     .max(split.e.column(c).amax())
                     .max(split.g.column(c).amax());
                 group_norm[group[c]] = group_norm[group[c]].max(norm);
             }
             let factors: Vec<f64> = (0..n_vars).map(|c| factor(group_norm[group[c]])).collect();
-            for row in regression.rows.chunks_exact_mut(width.max(1)) {
-                row.iter_mut().zip(&factors).for_each(|(a, f)| *a *= f);
-            }
             for (c, f) in factors.into_iter().enumerate() {
                 split.e.column_mut(c).scale_mut(f);
                 split.g.column_mut(c).scale_mut(f);
                 scaling.columns[c] *= f;
             }
         }
-        scaling
+        let row_scales: Vec<f64> = scaling.columns[..width]
+            .iter()
+            .map(|d| d * scaling.objective)
+            .collect();
+        let rows = regression
+            .rows
+            .chunks_exact(width.max(1))
+            .flat_map(|row| row.iter().zip(&row_scales).map(|(a, d)| a * d))
+            .collect();
+        let target = regression
+            .target
+            .iter()
+            .map(|t| t * scaling.objective)
+            .collect();
+        let scaled = Regression {
+            width,
+            rows,
+            target,
+        };
+        (scaling, scaled)
     }
 
     /// x = D x′.

@@ -194,8 +194,7 @@ struct Residuals {
 
 impl Residuals {
     fn new(p: &Reduced, x: &Point) -> Self {
-        let ay = &p.a * &x.y;
-        let mut rx_y = p.a.tr_mul(&(&x.z2 - &x.z1));
+        let (ay, mut rx_y) = p.a.mul_and_tr_mul(&x.y, &(&x.z2 - &x.z1));
         if p.g.nrows() > 0 {
             rx_y += p.g.tr_mul(&x.zc);
         }

@@ -41,20 +41,58 @@ use cones::Segment;
 use equalities::Elimination;
 
 use crate::error::Result;
+use crate::solve::linalg::RowMajor;
 use crate::solve::{Cone, L1Problem, L1Solution, Regression, SolveStatus, SolverSettings};
 
 /// Problem data after the equalities are eliminated.
 struct Reduced {
-    /// r × k regression block on y.
-    a: DMatrix<f64>,
+    /// r × k regression block on y, by rows.
+    a: RowMajor,
     /// Targets t − A c₀.
     t: DVector<f64>,
     /// Side-cone rows on y: h − G y ∈ K (dense, m × k).
     g: DMatrix<f64>,
     h: DVector<f64>,
     segments: Vec<Segment>,
+    /// How the side-cone rows enter the Schur complement.
+    side_rows: SideRows,
     /// Objective weight w of Σ e.
     weight: f64,
+}
+
+/// The side-cone rows split by how their part of the Schur complement,
+/// G̃ᵀ G̃, is best formed: orthant rows with few non-zeros (a box on the
+/// coefficients has one) as sparse outer products, since their scaling is
+/// diagonal and keeps the pattern; all others in one dense Gram product.
+/// For the entropy search's box on 923 coefficients the dense product
+/// would cost 13% of an iteration.
+struct SideRows {
+    /// Row index and the columns of its non-zeros.
+    sparse: Vec<(usize, Vec<usize>)>,
+    dense: Vec<usize>,
+}
+
+impl SideRows {
+    /// A row is sparse with at most one non-zero in `SPARSE_FRACTION` columns.
+    const SPARSE_FRACTION: usize = 16;
+
+    fn new(g: &DMatrix<f64>, segments: &[Segment]) -> Self {
+        let mut rows = Self {
+            sparse: Vec::new(),
+            dense: Vec::new(),
+        };
+        for segment in segments {
+            for i in segment.range() {
+                let nonzeros: Vec<usize> = (0..g.ncols()).filter(|&j| g[(i, j)] != 0.0).collect();
+                if segment.psd.is_none() && nonzeros.len() * Self::SPARSE_FRACTION <= g.ncols() {
+                    rows.sparse.push((i, nonzeros));
+                } else {
+                    rows.dense.push(i);
+                }
+            }
+        }
+        rows
+    }
 }
 
 /// Solves `problem` (see the module docs).
@@ -62,8 +100,7 @@ pub(crate) fn solve(problem: &L1Problem, settings: &SolverSettings) -> Result<L1
     let start = Instant::now();
     let n_vars = problem.variables();
     let mut split = split_constraints(problem);
-    let mut regression = problem.regression.clone();
-    let scaling = equilibrate::Scaling::equilibrate(&mut regression, &mut split);
+    let (scaling, regression) = equilibrate::Scaling::equilibrate(&problem.regression, &mut split);
     let elimination = match equalities::eliminate(&split.e, &split.f, n_vars) {
         Ok(elimination) => elimination,
         Err(failure) => {
@@ -85,7 +122,7 @@ pub(crate) fn solve(problem: &L1Problem, settings: &SolverSettings) -> Result<L1
             })
         }
     };
-    let reduced = reduce(&regression, split, &elimination, settings.objective_scale);
+    let reduced = reduce(regression, split, &elimination, settings.objective_scale);
     let setup_seconds = start.elapsed().as_secs_f64();
 
     let start = Instant::now();
@@ -171,34 +208,42 @@ fn split_constraints(problem: &L1Problem) -> Split {
     split
 }
 
-/// The problem on y after c = c₀ + Z y.
-fn reduce(
-    regression: &Regression,
-    split: Split,
-    elimination: &Elimination,
-    weight: f64,
-) -> Reduced {
+/// The problem on y after c = c₀ + Z y. Without equalities the regression's
+/// rows are moved, not copied: at q = 16000 samples of a 6-state system with
+/// 923 entropy coefficients they take 700 MB.
+fn reduce(regression: Regression, split: Split, elimination: &Elimination, weight: f64) -> Reduced {
     let width = regression.width;
     let r = regression.len();
-    let a_full = DMatrix::from_row_slice(r, width, &regression.rows);
-    let top = elimination.basis.rows(0, width);
-    let a = if elimination.identity {
-        let mut a = DMatrix::zeros(r, elimination.basis.ncols());
-        a.columns_mut(0, width).copy_from(&a_full);
-        a
+    let k = elimination.basis.ncols();
+    let a_full = RowMajor::from_rows(r, width, regression.rows);
+    let c0 = elimination.c0.rows(0, width).into_owned();
+    let t = DVector::from_vec(regression.target) - a_full.mul(&c0);
+    let a = if elimination.identity && k == width {
+        a_full
+    } else if elimination.identity {
+        // Variables the regression does not read get zero columns.
+        let mut rows = vec![0.0; r * k];
+        for (i, row) in rows.chunks_exact_mut(k.max(1)).enumerate().take(r) {
+            row[..width].copy_from_slice(a_full.row(i));
+        }
+        RowMajor::from_rows(r, k, rows)
     } else {
-        &a_full * top
+        a_full.mul_matrix(&elimination.basis.rows(0, width).into_owned())
     };
-    let t =
-        DVector::from_column_slice(&regression.target) - &a_full * elimination.c0.rows(0, width);
-    let g = &split.g * &elimination.basis;
     let h = &split.h - &split.g * &elimination.c0;
+    let g = if elimination.identity {
+        split.g
+    } else {
+        &split.g * &elimination.basis
+    };
+    let side_rows = SideRows::new(&g, &split.segments);
     Reduced {
         a,
         t,
         g,
         h,
         segments: split.segments,
+        side_rows,
         weight,
     }
 }

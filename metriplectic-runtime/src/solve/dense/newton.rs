@@ -30,6 +30,11 @@ pub(super) struct Kkt {
 
 /// Most iterative-refinement steps per solve.
 const MAX_REFINEMENT: usize = 8;
+/// Refinement stops at a KKT residual of `REFINEMENT_ABSOLUTE` plus
+/// `REFINEMENT_RELATIVE` times the right-hand side (Clarabel's defaults; the
+/// problem is equilibrated, so these are in units of the data).
+const REFINEMENT_ABSOLUTE: f64 = 1e-12;
+const REFINEMENT_RELATIVE: f64 = 1e-13;
 /// Most conjugate-gradient steps per Schur-complement solve.
 const MAX_CG: usize = 50;
 /// A Schur-complement solve stops at a residual this small relative to its
@@ -107,7 +112,7 @@ impl<'a> Newton<'a> {
     /// S v = Aᵀ D̃ A v + G̃ᵀ G̃ v, without forming S.
     fn schur_product(&self, v: &DVector<f64>) -> DVector<f64> {
         let p = self.problem;
-        let mut out = p.a.tr_mul(&(&p.a * v).component_mul(&self.weights));
+        let mut out = p.a.tr_mul(&p.a.mul(v).component_mul(&self.weights));
         if self.scaled_g.nrows() > 0 {
             out += self.scaled_g.tr_mul(&(&self.scaled_g * v));
         }
@@ -165,14 +170,16 @@ impl<'a> Newton<'a> {
     /// Solves [0 G̃ᵀ; G̃ −I][dx; dz̃] = [bx; bz̃] for x = (y, e), z̃ = (z₁, z₂, ũ)
     /// (the L1 orthants' blocks unscaled, −diag(s/z), the side cones' scaled),
     /// through the Schur complement on y, then iterative refinement on the
-    /// unreduced system while each step at least halves the residual (a
-    /// step that does not improve it is discarded), up to `MAX_REFINEMENT`.
+    /// unreduced system until the residual is small (`REFINEMENT_ABSOLUTE`,
+    /// `REFINEMENT_RELATIVE`), while each step at least halves it (a step
+    /// that does not improve it is discarded), up to `MAX_REFINEMENT`.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
         let (mut solution, floor) = self.solve_reduced(rhs, None);
         let mut residual = rhs.minus(&self.apply(&solution));
         let mut size = residual.amax();
+        let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * rhs.amax();
         for _ in 0..MAX_REFINEMENT {
-            if size == 0.0 || size.is_nan() {
+            if size <= enough || size.is_nan() {
                 break;
             }
             let candidate = solution.plus(&self.solve_reduced(&residual, Some(floor)).0);
@@ -194,8 +201,7 @@ impl<'a> Newton<'a> {
     /// The unreduced KKT operator applied to (dx, dz̃).
     fn apply(&self, v: &Kkt) -> Kkt {
         let p = self.problem;
-        let ay = &p.a * &v.y;
-        let mut y = p.a.tr_mul(&(&v.z2 - &v.z1));
+        let (ay, mut y) = p.a.mul_and_tr_mul(&v.y, &(&v.z2 - &v.z1));
         let mut zc = DVector::zeros(0);
         if p.g.nrows() > 0 {
             y += self.scaled_g.tr_mul(&v.zc);
@@ -210,10 +216,11 @@ impl<'a> Newton<'a> {
         }
     }
 
-    /// One solve through the Schur complement on y.
-    /// One solve through the Schur complement on y; the Schur solve stops at
-    /// a residual of `floor` (by default `SCHUR_TOLERANCE` times its
-    /// right-hand side), returned for the refinement steps.
+    /// One solve through the Schur complement on y. The first solve of a
+    /// right-hand side uses the factor alone (`floor` `None`); its KKT
+    /// residual then tells whether anything is left to refine, and each
+    /// refinement step solves the Schur system by CG down to `floor`
+    /// (`SCHUR_TOLERANCE` times the first right-hand side, returned).
     fn solve_reduced(&self, b: &Kkt, floor: Option<f64>) -> (Kkt, f64) {
         let p = self.problem;
         let d1b = self.d1.component_mul(&b.z1);
@@ -226,9 +233,11 @@ impl<'a> Newton<'a> {
         if p.g.nrows() > 0 {
             rhs_y += self.scaled_g.tr_mul(&b.zc);
         }
-        let floor = floor.unwrap_or(SCHUR_TOLERANCE * rhs_y.amax());
-        let dy = self.solve_schur(&rhs_y, floor);
-        let ady = &p.a * &dy;
+        let (dy, floor) = match floor {
+            Some(floor) => (self.solve_schur(&rhs_y, floor), floor),
+            None => (self.schur.solve(&rhs_y), SCHUR_TOLERANCE * rhs_y.amax()),
+        };
+        let ady = p.a.mul(&dy);
         let de = (&rhs_e - diff.component_mul(&ady)).component_div(&sum);
         // dz = D (G dx − bz) on the orthants, with G = [[−A, −I]; [A, −I]],
         // and ũ = G̃ dy − bz̃ on the side cones.
@@ -269,14 +278,22 @@ fn schur_complement(
     scaled_g: &DMatrix<f64>,
     weights: &DVector<f64>,
 ) -> DMatrix<f64> {
-    let weights = weights.map(f64::sqrt);
-    let mut scaled = problem.a.clone();
-    for mut column in scaled.column_iter_mut() {
-        column.component_mul_assign(&weights);
+    let mut schur = problem.a.weighted_gram(weights);
+    let rows = &problem.side_rows;
+    if rows.dense.len() == scaled_g.nrows() {
+        if !rows.dense.is_empty() {
+            schur += gram(scaled_g);
+        }
+    } else if !rows.dense.is_empty() {
+        schur += gram(&scaled_g.select_rows(&rows.dense));
     }
-    let mut schur = gram(&scaled);
-    if scaled_g.nrows() > 0 {
-        schur += gram(scaled_g);
+    for (i, columns) in &rows.sparse {
+        for &j in columns {
+            let gj = scaled_g[(*i, j)];
+            for &l in columns {
+                schur[(j, l)] += gj * scaled_g[(*i, l)];
+            }
+        }
     }
     schur
 }
