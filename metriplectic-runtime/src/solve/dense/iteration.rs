@@ -72,6 +72,10 @@ pub(super) fn iterate(p: &Reduced, settings: &SolverSettings) -> (Point, SolveSt
         return (Point::failed(p), SolveStatus::NumericalError, 0);
     };
     let mut progress = Progress::default();
+    // Without PSD cones the problem is a linear program, and the primal and
+    // dual parts may take their own step lengths, as LP codes do: one
+    // blocking component then no longer stalls both.
+    let linear = p.segments.iter().all(|s| s.psd.is_none());
     for iteration in 0..=settings.max_iter {
         // Residuals and termination.
         let residuals = Residuals::new(p, &x);
@@ -114,16 +118,35 @@ pub(super) fn iterate(p: &Reduced, settings: &SolverSettings) -> (Point, SolveSt
 
         // Predictor, centering, corrector.
         let affine = step.direction(&residuals, &step.affine_target());
-        let sigma = (1.0 - step.step_limit(&affine).min(1.0)).powi(3);
+        let affine_steps = step.step_limits(&affine);
+        let sigma = if linear {
+            // Mehrotra's σ = (μ_aff / μ)³ with the affine step's own lengths.
+            let limits = Steps {
+                primal: affine_steps.primal.min(1.0),
+                dual: affine_steps.dual.min(1.0),
+            };
+            let ratio = step.orthant_gap_after(&affine, limits) / residuals.gap;
+            if ratio.is_finite() {
+                ratio.clamp(0.0, 1.0).powi(3)
+            } else {
+                1.0
+            }
+        } else {
+            (1.0 - affine_steps.common().primal.min(1.0)).powi(3)
+        };
         let mu = residuals.gap / barrier_degree(p);
         let combined = step.direction(&residuals, &step.corrector_target(&affine, sigma * mu));
 
         // Step length and update.
-        let alpha = (STEP_FRACTION * step.step_limit(&combined)).min(1.0);
-        if alpha.is_nan() || alpha <= 1e-10 {
+        let mut steps = step.step_limits(&combined).damped();
+        if !linear {
+            steps = steps.common();
+        }
+        let smallest = steps.primal.min(steps.dual);
+        if smallest.is_nan() || smallest <= 1e-10 {
             return progress.finish(x, SolveStatus::InsufficientProgress, iteration);
         }
-        step.update(&mut x, &combined, alpha);
+        step.update(&mut x, &combined, steps);
         if !x.is_finite() {
             return progress.finish(x, SolveStatus::NumericalError, iteration);
         }
@@ -268,6 +291,32 @@ fn amax(v: &DVector<f64>) -> f64 {
     }
 }
 
+/// Step lengths for the primal (y, e, s) and dual (z) parts of a direction.
+#[derive(Clone, Copy)]
+struct Steps {
+    primal: f64,
+    dual: f64,
+}
+
+impl Steps {
+    /// The common step min(primal, dual).
+    fn common(self) -> Self {
+        let alpha = self.primal.min(self.dual);
+        Self {
+            primal: alpha,
+            dual: alpha,
+        }
+    }
+
+    /// `STEP_FRACTION` of each limit, at most 1.
+    fn damped(self) -> Self {
+        Self {
+            primal: (STEP_FRACTION * self.primal).min(1.0),
+            dual: (STEP_FRACTION * self.dual).min(1.0),
+        }
+    }
+}
+
 /// A complementarity target d_s in the scaled space, per cone block.
 struct Target {
     s1: DVector<f64>,
@@ -402,42 +451,59 @@ impl<'a> Step<'a> {
         }
     }
 
-    /// The largest step along `d` that stays in every cone.
-    fn step_limit(&self, d: &Direction) -> f64 {
-        let mut alpha = f64::INFINITY;
-        for (l, v) in [
-            (&self.lambda1, &d.s1_scaled),
-            (&self.lambda1, &d.z1_scaled),
-            (&self.lambda2, &d.s2_scaled),
-            (&self.lambda2, &d.z2_scaled),
-        ] {
-            for (l, v) in l.iter().zip(v.iter()) {
-                if *v < 0.0 {
-                    alpha = alpha.min(-l / v);
+    /// The largest steps along `d` that keep the slacks (primal) and the
+    /// multipliers (dual) in their cones.
+    fn step_limits(&self, d: &Direction) -> Steps {
+        let limit = |pairs: [(&DVector<f64>, &DVector<f64>); 2]| {
+            let mut alpha = f64::INFINITY;
+            for (l, v) in pairs {
+                for (l, v) in l.iter().zip(v.iter()) {
+                    if *v < 0.0 {
+                        alpha = alpha.min(-l / v);
+                    }
                 }
             }
-        }
+            alpha
+        };
         let segments = &self.problem.segments;
         let lambda = self.lambda_c.as_slice();
         let slack_limit = slack_step_limit(segments, &self.sc, &d.sc)
             .unwrap_or_else(|| side_step_limit(segments, lambda, &d.sc_scaled));
-        alpha = alpha
-            .min(slack_limit)
-            .min(side_step_limit(segments, lambda, &d.zc_scaled));
-        alpha
+        Steps {
+            primal: limit([(&self.lambda1, &d.s1_scaled), (&self.lambda2, &d.s2_scaled)])
+                .min(slack_limit),
+            dual: limit([(&self.lambda1, &d.z1_scaled), (&self.lambda2, &d.z2_scaled)])
+                .min(side_step_limit(segments, lambda, &d.zc_scaled)),
+        }
+    }
+
+    /// The complementarity Σ sᵢzᵢ of the orthants after the steps `steps`
+    /// along `d` (in the scaled space sᵢzᵢ = (λ + αₚ Δs̃)ᵢ (λ + α_d Δz̃)ᵢ).
+    fn orthant_gap_after(&self, d: &Direction, steps: Steps) -> f64 {
+        let pairs = [
+            (&self.lambda1, &d.s1_scaled, &d.z1_scaled),
+            (&self.lambda2, &d.s2_scaled, &d.z2_scaled),
+            (&self.lambda_c, &d.sc_scaled, &d.zc_scaled),
+        ];
+        pairs
+            .iter()
+            .flat_map(|(l, ds, dz)| l.iter().zip(ds.iter()).zip(dz.iter()))
+            .map(|((l, ds), dz)| (l + steps.primal * ds) * (l + steps.dual * dz))
+            .sum()
     }
 
     /// x ← x + α d; the L1 slacks mapped back from the scaled space
     /// (ds = w∘Δs̃, diagonal and exact), the side-cone slacks along `d.sc`.
-    fn update(&self, x: &mut Point, d: &Direction, alpha: f64) {
+    fn update(&self, x: &mut Point, d: &Direction, steps: Steps) {
+        let (alpha, beta) = (steps.primal, steps.dual);
         x.y += &d.y * alpha;
         x.e += &d.e * alpha;
         x.s1 += self.w1.component_mul(&d.s1_scaled) * alpha;
         x.s2 += self.w2.component_mul(&d.s2_scaled) * alpha;
         x.sc += &d.sc * alpha;
-        x.z1 += &d.z1 * alpha;
-        x.z2 += &d.z2 * alpha;
-        x.zc += &d.zc * alpha;
+        x.z1 += &d.z1 * beta;
+        x.z2 += &d.z2 * beta;
+        x.zc += &d.zc * beta;
     }
 }
 
