@@ -1,0 +1,381 @@
+//! Larger systems: the entropy search of a 6-state system against the
+//! floor of its interior-point iterations, across cores and sample counts.
+//!
+//! The system is three coupled oscillators with the canonical Poisson
+//! tensor and a constant metric (metric degree 0), declared with entropy
+//! degree 4 (p = 209 coefficients) and 6 (p = 923). Every solve is the
+//! entropy search on q exact samples of the reference model with the
+//! metric held at the identity, which is not the truth, so the optimum is
+//! not zero (as in an identification's middle iterations).
+//!
+//! * Criterion (10 samples): the degree-4 solve at q = 2000, and the floor
+//!   kernel of both degrees.
+//! * Then a report, one run per row, printed as Markdown for BENCHMARKS.md:
+//!   time per interior-point iteration against the floor (one Aᵀ D A of the
+//!   problem's own regression block plus its Cholesky factorisation, with
+//!   faer on all cores), one core against all, the fitted growth in q over
+//!   q = 2000…16000 and in p, and whether the coefficients have the same
+//!   bits on one thread as on all.
+//!
+//! `cargo bench --bench scale` (about 5 min on 2 cores); `-- --quick` stops
+//! at q = 4000; `-- --peak` runs only the degree-6 solve at q = 16000 and
+//! prints the process's peak resident memory.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::Criterion;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::matmul::triangular::{matmul, BlockStructure};
+use faer::{Accum, MatMut, MatRef, Par};
+use metriplectic::systems::reference_samples;
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{entropy_search, SearchOptions};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+metriplectic! {
+    /// Three coupled oscillators, entropy degree 6.
+    pub struct ChainDegree6;
+    state (q1, q2, q3, p1, p2, p3);
+    const c = 0.25;
+    poisson = [
+        [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1],
+        [-1, 0, 0, 0, 0, 0], [0, -1, 0, 0, 0, 0], [0, 0, -1, 0, 0, 0],
+    ];
+    hamiltonian = 0.5 * (p1^2 + p2^2 + p3^2) + 0.5 * (q1^2 + q2^2 + q3^2)
+        + c * ((q2 - q1)^2 + (q3 - q2)^2);
+    entropy degree 6;
+    metric degree 0;
+    reference {
+        entropy = -0.25 * (p1^2 + p2^2 + p3^2 + q1^2 + q2^2 + q3^2 - 1)^2 - 0.5 * q1 * p2;
+        metric = [[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0],
+                  [0, 0, 0, 1, 0.2, 0], [0, 0, 0, 0.2, 1, 0], [0, 0, 0, 0, 0, 1]];
+    }
+}
+
+metriplectic! {
+    /// Three coupled oscillators, entropy degree 4.
+    pub struct ChainDegree4;
+    state (q1, q2, q3, p1, p2, p3);
+    const c = 0.25;
+    poisson = [
+        [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1],
+        [-1, 0, 0, 0, 0, 0], [0, -1, 0, 0, 0, 0], [0, 0, -1, 0, 0, 0],
+    ];
+    hamiltonian = 0.5 * (p1^2 + p2^2 + p3^2) + 0.5 * (q1^2 + q2^2 + q3^2)
+        + c * ((q2 - q1)^2 + (q3 - q2)^2);
+    entropy degree 4;
+    metric degree 0;
+    reference {
+        entropy = -0.25 * (p1^2 + p2^2 + p3^2 + q1^2 + q2^2 + q3^2 - 1)^2 - 0.5 * q1 * p2;
+        metric = [[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0],
+                  [0, 0, 0, 1, 0.2, 0], [0, 0, 0, 0.2, 1, 0], [0, 0, 0, 0, 0, 1]];
+    }
+}
+
+/// One entropy search: the data, the metric it holds fixed, and its timing.
+struct Case<S: MetriplecticSystem> {
+    data: Dataset,
+    metric: Vec<f64>,
+    marker: std::marker::PhantomData<S>,
+}
+
+/// What one solve measured.
+struct Solve {
+    seconds: f64,
+    solver_seconds: f64,
+    iterations: u32,
+    coefficients: Vec<f64>,
+}
+
+impl Solve {
+    fn per_iteration(&self) -> f64 {
+        self.solver_seconds / f64::from(self.iterations.max(1))
+    }
+}
+
+impl<S: MetriplecticSystem> Case<S> {
+    fn new(q: usize) -> Self {
+        let data = reference_samples::<S>(q, 1, |rng| {
+            (0..6).map(|_| rng.random_range(-1.2..1.2)).collect()
+        });
+        let identity = Model::<S>::with_identity_metric(vec![0.0; S::entropy_coefficient_count()])
+            .expect("valid coefficients");
+        Self {
+            data,
+            metric: identity.metric_coefficients().to_vec(),
+            marker: std::marker::PhantomData,
+        }
+    }
+
+    fn solve(&self) -> Solve {
+        let start = Instant::now();
+        let search = entropy_search::<S>(&self.data, &self.metric, &SearchOptions::default())
+            .expect("the entropy search runs");
+        let seconds = start.elapsed().as_secs_f64();
+        assert!(
+            search.report.status.is_usable(),
+            "{:?}",
+            search.report.status
+        );
+        Solve {
+            seconds,
+            solver_seconds: search.report.solver_seconds,
+            iterations: search.report.iterations,
+            coefficients: search.coefficients,
+        }
+    }
+
+    /// The search's regression block (r × p, row-major), assembled like
+    /// the runtime assembles it: M J(x)ᵀ per sample with M = K + Π.
+    fn regression(&self) -> (usize, usize, Vec<f64>) {
+        let (n, p) = (S::DIM, S::entropy_coefficient_count());
+        let mut k = vec![0.0; n * n];
+        let mut block = vec![0.0; n * p];
+        let mut drift = vec![0.0; n];
+        let mut rows = Vec::with_capacity(self.data.len() * n * p);
+        for i in 0..self.data.len() {
+            let x = self.data.state(i);
+            S::metric_value(x, &self.metric, &mut k);
+            S::entropy_block(x, &k, &mut block, &mut drift);
+            rows.extend_from_slice(&block);
+        }
+        (self.data.len() * n, p, rows)
+    }
+}
+
+/// The floor of one interior-point iteration: Aᵀ D A of the problem's own
+/// regression block and a random positive D (the rows scaled by √D into a
+/// buffer allocated once, then faer's lower-triangular product), and its
+/// Cholesky factorisation, all with faer on every core.
+struct Floor {
+    rows: usize,
+    columns: usize,
+    a: Vec<f64>,
+    d: Vec<f64>,
+    scaled: Vec<f64>,
+    schur: Vec<f64>,
+}
+
+impl Floor {
+    fn new((rows, columns, a): (usize, usize, Vec<f64>)) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let d = (0..rows).map(|_| rng.random_range(0.5..2.0)).collect();
+        Self {
+            rows,
+            columns,
+            scaled: vec![0.0; a.len()],
+            a,
+            d,
+            schur: vec![0.0; columns * columns],
+        }
+    }
+
+    fn run(&mut self) -> f64 {
+        let (r, k) = (self.rows, self.columns);
+        let start = Instant::now();
+        for ((target, row), d) in self
+            .scaled
+            .chunks_exact_mut(k)
+            .zip(self.a.chunks_exact(k))
+            .zip(&self.d)
+        {
+            let root = d.sqrt();
+            target.iter_mut().zip(row).for_each(|(t, a)| *t = root * a);
+        }
+        let scaled = MatRef::from_row_major_slice(&self.scaled, r, k);
+        matmul(
+            MatMut::from_column_major_slice_mut(&mut self.schur, k, k),
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            scaled.transpose(),
+            BlockStructure::Rectangular,
+            scaled,
+            BlockStructure::Rectangular,
+            1.0,
+            Par::rayon(0),
+        );
+        let par = Par::rayon(0);
+        let mut memory = MemBuffer::new(
+            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+                k,
+                par,
+                Default::default(),
+            ),
+        );
+        faer::linalg::cholesky::llt::factor::cholesky_in_place(
+            MatMut::from_column_major_slice_mut(&mut self.schur, k, k),
+            Default::default(),
+            par,
+            MemStack::new(&mut memory),
+            Default::default(),
+        )
+        .expect("Aᵀ D A is positive definite");
+        start.elapsed().as_secs_f64()
+    }
+
+    /// Median of `repeats` runs.
+    fn median(&mut self, repeats: usize) -> f64 {
+        median((0..repeats).map(|_| self.run()).collect())
+    }
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+/// Least-squares slope of log y against log x.
+fn log_log_slope(points: &[(f64, f64)]) -> f64 {
+    let logs: Vec<(f64, f64)> = points.iter().map(|(x, y)| (x.ln(), y.ln())).collect();
+    let n = logs.len() as f64;
+    let mx = logs.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = logs.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = logs.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = logs.iter().map(|(x, _)| (x - mx) * (x - mx)).sum();
+    sxy / sxx
+}
+
+/// `f` on a rayon pool of `threads` threads (faer's kernels and the
+/// runtime's parallel loops use the current pool).
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+        .install(f)
+}
+
+/// Peak resident memory of this process (VmHWM), in MiB.
+fn peak_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+/// Rows of the q-series for one degree: q, p, IPM iterations, seconds per
+/// solve and per IPM iteration, the floor and the ratio.
+fn q_series<S: MetriplecticSystem>(qs: &[usize]) -> Vec<(usize, Solve, f64)> {
+    let mut rows = Vec::new();
+    for &q in qs {
+        let case = Case::<S>::new(q);
+        let floor = Floor::new(case.regression()).median(3);
+        let solve = case.solve();
+        println!(
+            "| {} | {q} | {} | {:.2} | {:.1} | {:.1} | {:.2}× |",
+            S::entropy_coefficient_count(),
+            solve.iterations,
+            solve.seconds,
+            1e3 * solve.per_iteration(),
+            1e3 * floor,
+            solve.per_iteration() / floor,
+        );
+        rows.push((q, solve, floor));
+    }
+    rows
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    if args.iter().any(|a| a == "--peak") {
+        let case = Case::<ChainDegree6>::new(16000);
+        let solve = case.solve();
+        println!(
+            "entropy degree 6 (p = 923), q = 16000: {:.1} s, {} IPM iterations; peak RSS {:.0} MiB",
+            solve.seconds,
+            solve.iterations,
+            peak_mib().unwrap_or(f64::NAN)
+        );
+        return;
+    }
+
+    let small = Case::<ChainDegree4>::new(2000);
+    let mut floor4 = Floor::new(small.regression());
+    let mut floor6 = Floor::new(Case::<ChainDegree6>::new(2000).regression());
+    let mut criterion = Criterion::default()
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(if quick { 200 } else { 1000 }))
+        .measurement_time(Duration::from_secs(if quick { 2 } else { 8 }))
+        .configure_from_args();
+    let mut group = criterion.benchmark_group("scale");
+    group.bench_function("entropy search, degree 4, q = 2000", |b| {
+        b.iter(|| black_box(small.solve().iterations))
+    });
+    group.bench_function("floor, degree 4, q = 2000", |b| {
+        b.iter(|| black_box(floor4.run()))
+    });
+    group.bench_function("floor, degree 6, q = 2000", |b| {
+        b.iter(|| black_box(floor6.run()))
+    });
+    group.finish();
+
+    println!("\n### Time per interior-point iteration against the floor (all cores)\n");
+    println!(
+        "| p | q | IPM iterations | solve (s) | per IPM iteration (ms) | floor (ms) | ratio |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let qs: &[usize] = if quick {
+        &[2000, 4000]
+    } else {
+        &[2000, 4000, 8000, 16000]
+    };
+    let degree4 = q_series::<ChainDegree4>(qs);
+    let degree6 = q_series::<ChainDegree6>(qs);
+
+    println!("\n### Growth\n");
+    for (p, rows) in [(209, &degree4), (923, &degree6)] {
+        let solves: Vec<(f64, f64)> = rows
+            .iter()
+            .map(|(q, s, _)| (*q as f64, s.seconds))
+            .collect();
+        let iterations: Vec<(f64, f64)> = rows
+            .iter()
+            .map(|(q, s, _)| (*q as f64, s.per_iteration()))
+            .collect();
+        println!(
+            "p = {p}: solve ∝ q^{:.2}, per IPM iteration ∝ q^{:.2} (q = {}…{})",
+            log_log_slope(&solves),
+            log_log_slope(&iterations),
+            qs[0],
+            qs[qs.len() - 1]
+        );
+    }
+    let per_p: Vec<(f64, f64)> = [(209.0, &degree4), (923.0, &degree6)]
+        .iter()
+        .map(|(p, rows)| (*p, rows[0].1.per_iteration()))
+        .collect();
+    println!(
+        "q = {}: per IPM iteration ∝ p^{:.2} (p = 209, 923)",
+        qs[0],
+        log_log_slope(&per_p)
+    );
+
+    println!("\n### One core against all\n");
+    println!("| p | q | threads | solve (s) | per IPM iteration (ms) | floor (ms) | speed-up | same bits |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let case = Case::<ChainDegree6>::new(2000);
+    let all = rayon::current_num_threads();
+    let (one_solve, one_floor) = on_threads(1, || {
+        (case.solve(), Floor::new(case.regression()).median(3))
+    });
+    let all_solve = case.solve();
+    let all_floor = Floor::new(case.regression()).median(3);
+    let same = one_solve
+        .coefficients
+        .iter()
+        .zip(&all_solve.coefficients)
+        .all(|(a, b)| a.to_bits() == b.to_bits());
+    for (threads, solve, floor) in [(1, &one_solve, one_floor), (all, &all_solve, all_floor)] {
+        println!(
+            "| 923 | 2000 | {threads} | {:.2} | {:.1} | {:.1} | {:.2}× | {} |",
+            solve.seconds,
+            1e3 * solve.per_iteration(),
+            1e3 * floor,
+            one_solve.seconds / solve.seconds,
+            if same { "yes" } else { "no" },
+        );
+    }
+}
