@@ -19,10 +19,11 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identify_resume_with_observer, identify_with_observer, simulate, synthesize, CheckpointConfig,
-    History, InitialStates, IterationRecord, IterationScheme, L1Formulation, OutputTimes,
-    SampleTimes, SearchOptions, Simulation, SimulationOptions, SolveStatus, SolverBackend,
-    SolverSettings, StopReason, SynthesisOptions, SyntheticData, TrustRegion, WriteMode,
+    identifiability, identify_resume_with_observer, identify_with_observer, simulate, synthesize,
+    CheckpointConfig, FlatDirection, Gauge, History, Identifiability, IdentifiabilityOptions,
+    InitialStates, IterationRecord, IterationScheme, L1Formulation, OutputTimes, SampleTimes,
+    SearchOptions, Simulation, SimulationOptions, SolveStatus, SolverBackend, SolverSettings,
+    StopReason, SynthesisOptions, SyntheticData, TrustRegion, WriteMode,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -82,6 +83,14 @@ pub struct Options {
     /// Save `<out>/checkpoint.json` every this many iterations (and on stop).
     #[arg(long, default_value_t = 10)]
     pub checkpoint_every: usize,
+    /// Start from the entropy S = 0 (nothing of the truth used) whatever the
+    /// experiment's default start.
+    #[arg(long)]
+    pub cold_start: bool,
+    /// Fix the gauge tr K(0) = this value (e.g. the state dimension), for
+    /// systems whose data fix K only up to scale.
+    #[arg(long)]
+    pub gauge_trace: Option<f64>,
 }
 
 /// Which solver runs the subproblems (see [`SolverBackend`]).
@@ -205,6 +214,16 @@ pub struct Summary {
     pub seconds_total: f64,
     /// Wall time inside the solver (either backend).
     pub seconds_solver: f64,
+    /// The gauge tr K(0) fixed during the run, if any.
+    pub gauge_trace: Option<f64>,
+    /// Whether the training data determine every coefficient of the
+    /// identified model (see `identifiability`).
+    pub identifiable: bool,
+    /// The smallest singular value of the column-normalised Jacobian of the
+    /// field with respect to the coefficients, relative to the largest.
+    pub smallest_singular_value: f64,
+    /// The coefficient combinations the training data cannot determine.
+    pub unidentifiable_directions: Vec<FlatDirection>,
 }
 
 /// Why a reproduction could not run or finish.
@@ -330,7 +349,7 @@ pub fn run_until<S: MetriplecticSystem>(
         max_iterations: iterations,
         tolerance: options.tolerance,
         seed: options.seed,
-        initial_entropy: Some(if experiment.cold_start {
+        initial_entropy: Some(if experiment.cold_start || options.cold_start {
             vec![0.0; S::entropy_coefficient_count()]
         } else {
             perturbed_entropy::<S>(&truth, experiment.initial_entropy_std, options.seed)?
@@ -342,6 +361,7 @@ pub fn run_until<S: MetriplecticSystem>(
                 backend: options.solver.to_backend(),
                 ..SolverSettings::default()
             },
+            gauge: options.gauge_trace.map(Gauge::MetricTrace),
             ..SearchOptions::default()
         },
         checkpoint: Some(CheckpointConfig {
@@ -384,6 +404,14 @@ pub fn run_until<S: MetriplecticSystem>(
     let (heldout_relative_error, heldout_mean_abs_residual) =
         held_out_errors(model, &truth, held_out)?;
     let (heldout_metric_error, metric_variation) = held_out_metric(model, &truth, held_out)?;
+    let report = identifiability(
+        model,
+        train,
+        &IdentifiabilityOptions {
+            search: config.search.clone(),
+            ..IdentifiabilityOptions::default()
+        },
+    )?;
     let (simulations, failed_simulations) = simulate_for_plots(model, experiment, options)?;
     let steps: usize = simulations.iter().map(|s| s.energy.steps).sum();
     let violations: usize = simulations.iter().map(|s| s.energy.violations).sum();
@@ -435,6 +463,10 @@ pub fn run_until<S: MetriplecticSystem>(
                         .map_or(0.0, |j| j.step.report.solver_seconds)
             })
             .sum(),
+        gauge_trace: options.gauge_trace,
+        identifiable: report.is_identifiable(),
+        smallest_singular_value: report.singular_values.last().copied().unwrap_or(0.0),
+        unidentifiable_directions: report.flat_directions.clone(),
     };
     write_json(&out.join("summary.json"), &summary)?;
     if !options.quiet {
@@ -446,6 +478,7 @@ pub fn run_until<S: MetriplecticSystem>(
                 options.solver,
                 &summary,
                 identification.stop_reason,
+                &report,
                 &out
             )
         );
@@ -710,6 +743,7 @@ fn human_summary<S: MetriplecticSystem>(
     solver: Solver,
     summary: &Summary,
     stop_reason: StopReason,
+    report: &Identifiability,
     out: &Path,
 ) -> String {
     let names = S::STATE_NAMES;
@@ -764,6 +798,7 @@ fn human_summary<S: MetriplecticSystem>(
         summary.metric_variation,
         100.0 * summary.free_energy_decrease_fraction
     );
+    let _ = writeln!(text, "{}", report.to_string().trim_end());
     let _ = write!(
         text,
         "wrote trajectories.png/.svg, loss.png, free_energy.png, history.csv, model.json, checkpoint.json, summary.json to {}",

@@ -80,6 +80,7 @@ extern crate openblas_src as _;
 // Lets the macro's `::metriplectic_runtime::…` paths resolve inside this crate's own tests.
 extern crate self as metriplectic_runtime;
 
+mod analysis;
 mod data;
 mod error;
 mod identify;
@@ -93,6 +94,9 @@ mod system;
 #[cfg(test)]
 mod test_system;
 
+pub use analysis::{
+    identifiability, FlatDirection, FlatKind, Identifiability, IdentifiabilityOptions,
+};
 pub use data::split_by_trajectory;
 pub use data::{
     dataset_from_trajectories, differentiate, estimate_all, estimate_derivatives,
@@ -106,10 +110,10 @@ pub use error::{CsvError, DatasetError, Error, Result, SimulationError};
 pub use identify::{
     entropy_search, identify, identify_resume, identify_resume_with_observer,
     identify_with_observer, joint_step, metric_search, model_cost, CheckpointConfig,
-    CoefficientBlock, Cost, EntropySearch, History, Identification, IdentifyConfig,
+    CoefficientBlock, Cost, EntropySearch, Gauge, History, Identification, IdentifyConfig,
     IdentifyWarning, IterationRecord, IterationScheme, JointStep, JointStepRecord, MetricSearch,
     SearchOptions, SearchReport, SosBasis, Stagnation, StepOutcome, StepRecord, StopReason,
-    TrustRegion, Validation,
+    Support, TrustRegion, Validation,
 };
 pub use io::WriteMode;
 pub use metriplectic_macros::metriplectic;

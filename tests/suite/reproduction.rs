@@ -32,6 +32,8 @@ fn reduced_options(out: &Path, batch_size: usize, iterations: usize) -> Options 
         quiet: true,
         resume: false,
         checkpoint_every: 10,
+        cold_start: false,
+        gauge_trace: None,
     }
 }
 
@@ -86,6 +88,10 @@ fn check_outputs<S: MetriplecticSystem>(out: &Path, summary: &Summary) -> Summar
         "nonoptimal_solves",
         "seconds_total",
         "seconds_solver",
+        "gauge_trace",
+        "identifiable",
+        "smallest_singular_value",
+        "unidentifiable_directions",
     ];
     expected.sort_unstable();
     assert_eq!(

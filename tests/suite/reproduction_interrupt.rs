@@ -34,6 +34,8 @@ fn tiny_options(out: &Path) -> Options {
         quiet: true,
         resume: false,
         checkpoint_every: 2,
+        cold_start: false,
+        gauge_trace: None,
     }
 }
 

@@ -55,12 +55,14 @@ pub struct IdentifyConfig {
     /// Seed of the minibatch generator (ChaCha8): equal seeds give equal
     /// runs. Default 0.
     pub seed: u64,
-    /// Initial entropy coefficients ψ⁽⁰⁾. Default `None`: fitted, the
+    /// Initial entropy coefficients ψ⁽⁰⁾ (zero outside the support of
+    /// [`search`](Self::search)). Default `None`: fitted, the
     /// entropy search's solution with the initial metric (on the full data,
     /// or on q samples of a minibatch run), zeros if that solve fails.
     pub initial_entropy: Option<Vec<f64>>,
-    /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite).
-    /// Default `None`: the identity metric.
+    /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite, and
+    /// against the support and gauge of [`search`](Self::search)).
+    /// Default `None`: the identity metric, scaled to the gauge if one is set.
     pub initial_metric: Option<Vec<f64>>,
     /// Options of every search: the coefficient bound η, the SOS tables and
     /// the solver. Default [`SearchOptions::default`] (η = 20).
@@ -244,11 +246,24 @@ impl IdentifyConfig {
         if self.max_failed_iterations == 0 {
             return Err(invalid("max_failed_iterations", "must be at least 1"));
         }
+        self.search.validate_for::<S>()?;
+        let support = &self.search.support;
         if let Some(entropy) = &self.initial_entropy {
             check_entropy::<S>("initial entropy coefficients", entropy)?;
+            support.check_model("initial entropy coefficients", entropy, &[])?;
         }
         if let Some(metric) = &self.initial_metric {
             check_metric_coefficients::<S>("initial metric coefficients", metric)?;
+            support.check_model("initial metric coefficients", &[], metric)?;
+            if let Some(gauge) = self.search.gauge {
+                let (value, wanted) = (gauge.value_at::<S>(metric), gauge.row::<S>().1);
+                if (value - wanted).abs() > 1e-12 * wanted {
+                    return Err(invalid(
+                        "initial metric coefficients",
+                        format!("the gauge fixes tr K(0) = {wanted}, they give {value}"),
+                    ));
+                }
+            }
         }
         if let IterationScheme::AlternatingThenJoint(trust) = &self.scheme {
             trust.validate()?;

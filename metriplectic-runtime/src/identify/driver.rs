@@ -15,6 +15,7 @@ use super::history::{
 };
 use super::search::{entropy_search, joint_step, metric_search, SearchReport};
 use super::state::RunState;
+use super::support::Gauge;
 use super::warnings::{data_warnings, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
@@ -146,10 +147,12 @@ where
     check_dataset::<S>(data)?;
     config.validate::<S>(data.equation_count())?;
     let split = Split::new(data, config)?;
-    let metric = config
-        .initial_metric
-        .clone()
-        .unwrap_or_else(|| identity_metric::<S>(1.0));
+    let metric = config.initial_metric.clone().unwrap_or_else(|| {
+        identity_metric::<S>(match config.search.gauge {
+            Some(Gauge::MetricTrace(trace)) => trace / S::DIM as f64,
+            None => 1.0,
+        })
+    });
     let entropy = match &config.initial_entropy {
         Some(entropy) => entropy.clone(),
         None => fitted_start::<S>(&split.pool, config, &metric)?,

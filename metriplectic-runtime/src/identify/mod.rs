@@ -9,6 +9,7 @@ mod driver;
 mod history;
 pub(crate) mod search;
 mod state;
+mod support;
 mod warnings;
 
 pub use checkpoint::CheckpointConfig;
@@ -23,4 +24,5 @@ pub use search::{
     entropy_search, joint_step, metric_search, EntropySearch, JointStep, MetricSearch,
     SearchOptions, SearchReport, SosBasis,
 };
+pub use support::{Gauge, Support};
 pub use warnings::{CoefficientBlock, IdentifyWarning};

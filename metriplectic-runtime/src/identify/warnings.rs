@@ -84,20 +84,7 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     model: &Model<S>,
     config: &IdentifyConfig,
 ) -> Result<Vec<IdentifyWarning>> {
-    // Metric coefficients the certificate leaves free: all of them with a
-    // region, those with a non-empty matching list with the global tables.
-    let tables = config.search.sos.tables::<S>();
-    let basis = S::METRIC_EXPONENTS.len();
-    let free: Vec<usize> = (0..S::DIM * (S::DIM + 1) / 2)
-        .flat_map(|pair| {
-            tables
-                .matching
-                .iter()
-                .enumerate()
-                .filter(|(_, pairs)| S::REGION_CERTIFICATE.is_some() || !pairs.is_empty())
-                .map(move |(alpha, _)| pair * basis + alpha)
-        })
-        .collect();
+    let free = super::search::certificate_free_metric::<S>(config.search.sos);
     let p = S::entropy_coefficient_count();
     let equations = data.equation_count() * S::DIM;
     let mut warnings = Vec::new();

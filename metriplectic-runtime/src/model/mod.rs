@@ -19,6 +19,7 @@ pub use score::Score;
 pub(crate) use gram::{theta_from_gram, Layout};
 
 pub(crate) use certificate::check_metric;
+pub(crate) use display::polynomial;
 
 /// See [`Model::MAX_COEFFICIENT`].
 pub(crate) const MAX_COEFFICIENT: f64 = 1e15;

@@ -113,6 +113,19 @@ impl Regression {
         }
     }
 
+    /// The regression on `columns` only (indices in range, in the order given).
+    pub(crate) fn select_columns(&self, columns: &[usize]) -> Regression {
+        let mut rows = Vec::with_capacity(self.len() * columns.len());
+        for row in self.rows.chunks_exact(self.width.max(1)) {
+            rows.extend(columns.iter().map(|&c| row[c]));
+        }
+        Regression {
+            width: columns.len(),
+            rows,
+            target: self.target.clone(),
+        }
+    }
+
     /// The rows of `self` followed by those of `below` (same width).
     pub(crate) fn stacked(&self, below: &Regression) -> Regression {
         debug_assert_eq!(self.width, below.width);

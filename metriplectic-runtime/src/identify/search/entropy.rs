@@ -45,12 +45,18 @@ pub fn entropy_search<S: MetriplecticSystem>(
     check_dataset::<S>(data)?;
     check_len("metric coefficients", metric, S::metric_coefficient_count())?;
     check_finite("metric coefficients", metric)?;
-    options.validate()?;
+    options.validate_for::<S>()?;
     super::check_generalized::<S>()?;
 
-    let p = S::entropy_coefficient_count();
     let start = std::time::Instant::now();
-    let mut problem = L1Problem::new(entropy_regression::<S>(data, metric)?, 0);
+    // Coefficients outside the support are columns left out.
+    let free = options.support.free_entropy::<S>();
+    let mut regression = entropy_regression::<S>(data, metric)?;
+    if free.len() < S::entropy_coefficient_count() {
+        regression = regression.select_columns(&free);
+    }
+    let p = free.len();
+    let mut problem = L1Problem::new(regression, 0);
     // Box rows: ψₖ ≤ η and −ψₖ ≤ η.
     let mut entries = Vec::with_capacity(2 * p);
     for k in 0..p {
@@ -61,11 +67,10 @@ pub fn entropy_search<S: MetriplecticSystem>(
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;
 
-    let coefficients: Vec<f64> = solution
-        .coefficients()
-        .iter()
-        .map(|&v| v.clamp(-options.eta, options.eta))
-        .collect();
+    let mut coefficients = vec![0.0; S::entropy_coefficient_count()];
+    for (&k, &v) in free.iter().zip(solution.coefficients()) {
+        coefficients[k] = v.clamp(-options.eta, options.eta);
+    }
     let cost = Model::<S>::new(coefficients.clone(), metric.to_vec())
         .ok()
         .and_then(|model| model_cost(&model, data).ok());

@@ -1,7 +1,7 @@
 //! A joint, linearised step in both coefficient blocks (ψ, θ) at once: a
 //! Gauss–Newton step for the L1 cost, in a trust region.
 
-use super::sos::{add_sos_constraints, layout, SosConstraints};
+use super::sos::{add_metric_restrictions, add_sos_constraints, layout, SosConstraints};
 use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
@@ -92,7 +92,7 @@ pub fn joint_step<S: MetriplecticSystem>(
     options: &SearchOptions,
 ) -> Result<JointStep> {
     check_dataset::<S>(data)?;
-    options.validate()?;
+    options.validate_for::<S>()?;
     super::check_generalized::<S>()?;
     if !(radius.is_finite() && radius > 0.0) {
         return Err(invalid(
@@ -101,20 +101,27 @@ pub fn joint_step<S: MetriplecticSystem>(
         ));
     }
     let layout = layout::<S>(options.sos)?;
-    let psi = model.entropy_coefficients();
     let theta = model.metric_coefficients();
+    // Entropy coefficients outside the support are neither columns nor moved.
+    let free = options.support.free_entropy::<S>();
+    let all_psi = model.entropy_coefficients();
+    let psi: Vec<f64> = free.iter().map(|&k| all_psi[k]).collect();
     let (t_len, p) = (theta.len(), psi.len());
 
     let start = std::time::Instant::now();
     // Columns [θ′ | d]; the metric regression's target ẋ − Π g is the
     // residual's constant part.
-    let regression =
-        metric_regression::<S>(data, psi)?.with_columns_of(&entropy_regression::<S>(data, theta)?);
+    let mut entropy_columns = entropy_regression::<S>(data, theta)?;
+    if p < all_psi.len() {
+        entropy_columns = entropy_columns.select_columns(&free);
+    }
+    let regression = metric_regression::<S>(data, all_psi)?.with_columns_of(&entropy_columns);
     let penalised = regression.stacked(&step_penalty(&regression, theta));
     let mut problem = L1Problem::new(penalised, SosConstraints::variables::<S>(&layout));
     let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, t_len + p)?;
+    add_metric_restrictions::<S>(&mut problem, options, 0)?;
     // The trust region in units of each coefficient's effect on the data.
-    let widths = trust_widths(&regression, theta, psi);
+    let widths = trust_widths(&regression, theta, &psi);
     let mut entries = Vec::with_capacity(2 * (t_len + p));
     let mut rhs = Vec::with_capacity(2 * (t_len + p));
     for (t, &value) in theta.iter().enumerate() {
@@ -145,11 +152,10 @@ pub fn joint_step<S: MetriplecticSystem>(
         .then(|| Cost::from_sum(regression.l1_residual(step), regression.len()));
     let certificate = sos.certificate(&solution);
     let metric = theta_from_gram::<S>(&layout, &certificate.lower);
-    let entropy: Vec<f64> = psi
-        .iter()
-        .zip(&step[t_len..])
-        .map(|(v, d)| (v + d).clamp(-options.eta, options.eta))
-        .collect();
+    let mut entropy = all_psi.to_vec();
+    for ((&k, v), d) in free.iter().zip(&psi).zip(&step[t_len..]) {
+        entropy[k] = (v + d).clamp(-options.eta, options.eta);
+    }
     let cost = Model::<S>::new(entropy.clone(), metric.clone())
         .ok()
         .and_then(|candidate| model_cost(&candidate, data).ok());

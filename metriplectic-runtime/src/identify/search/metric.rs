@@ -2,7 +2,7 @@
 //! coefficients θ with the entropy fixed, under sum-of-squares constraints
 //! that make 0 ⪯ K(x) ⪯ ηI hold for every x (see [`super::sos`]).
 
-use super::sos::{add_sos_constraints, layout, SosConstraints};
+use super::sos::{add_metric_restrictions, add_sos_constraints, layout, SosConstraints};
 use super::{check_sample_rows, SearchOptions, SearchReport};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
@@ -56,7 +56,7 @@ pub fn metric_search<S: MetriplecticSystem>(
         S::entropy_coefficient_count(),
     )?;
     check_finite("entropy coefficients", entropy)?;
-    options.validate()?;
+    options.validate_for::<S>()?;
     super::check_generalized::<S>()?;
     let layout = layout::<S>(options.sos)?;
 
@@ -67,6 +67,7 @@ pub fn metric_search<S: MetriplecticSystem>(
         SosConstraints::variables::<S>(&layout),
     );
     let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, theta_len)?;
+    add_metric_restrictions::<S>(&mut problem, options, 0)?;
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;
 

@@ -17,11 +17,13 @@ pub use sos::SosBasis;
 
 pub(crate) use entropy::entropy_regression;
 pub(crate) use metric::metric_regression;
+pub(crate) use sos::certificate_free_metric;
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Result};
 use crate::identify::cost::Cost;
+use crate::identify::support::{Gauge, Support};
 use crate::model::MAX_COEFFICIENT;
 use crate::solve::{L1Solution, SolveStatus, SolverSettings};
 
@@ -37,6 +39,12 @@ pub struct SearchOptions {
     pub sos: SosBasis,
     /// Solver settings, including the backend. Default [`SolverSettings::default`].
     pub solver: SolverSettings,
+    /// Coefficients held at zero (degree caps, sparse refits). Default
+    /// [`Support::full`]: none.
+    pub support: Support,
+    /// A normalisation of the metric that removes the scale symmetry
+    /// (K, E) ↦ (cK, E/c) when Π∇E = 0 on the data. Default `None`.
+    pub gauge: Option<Gauge>,
 }
 
 impl Default for SearchOptions {
@@ -45,15 +53,39 @@ impl Default for SearchOptions {
             eta: 20.0,
             sos: SosBasis::default(),
             solver: SolverSettings::default(),
+            support: Support::default(),
+            gauge: None,
         }
     }
 }
 
 impl SearchOptions {
-    /// Checks η and the solver settings.
+    /// Checks η, the solver settings and the gauge (the support is checked
+    /// against the system by every search).
     pub fn validate(&self) -> Result<()> {
         check_eta(self.eta)?;
+        if let Some(gauge) = self.gauge {
+            gauge.validate()?;
+        }
         self.solver.validate()
+    }
+
+    /// [`validate`](Self::validate), and the support and gauge against
+    /// system `S`: indices in range, and a gauge the bound η allows
+    /// (0 ⪯ K ⪯ ηI gives tr K(0) ≤ nη).
+    pub fn validate_for<S: crate::system::MetriplecticSystem>(&self) -> Result<()> {
+        self.validate()?;
+        self.support.validate::<S>()?;
+        match self.gauge {
+            Some(Gauge::MetricTrace(value)) if value > S::DIM as f64 * self.eta => Err(invalid(
+                "gauge",
+                format!(
+                    "metric trace {value} exceeds n·η = {}: no metric with K ⪯ ηI has it",
+                    S::DIM as f64 * self.eta
+                ),
+            )),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -181,6 +213,7 @@ mod tests {
             solver: settings(backend),
             sos,
             eta: 1.5,
+            ..SearchOptions::default()
         };
         let dense = SolverBackend::Dense;
 

@@ -16,6 +16,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
+use crate::identify::search::SearchOptions;
 use crate::model::{GramCertificate, GramMatrix, Layout};
 use crate::solve::svec::{svec_index, svec_len, unsvec, SQRT_2};
 use crate::solve::{Cone, ConstraintId, L1Problem, L1Solution};
@@ -172,4 +173,57 @@ pub(crate) fn add_sos_constraints<S: MetriplecticSystem>(
         lower: cones,
         upper,
     })
+}
+
+/// The metric coefficients the certificate leaves free: all of them with a
+/// region, those with a non-empty matching list with the global tables
+/// (the others are zero by the certificate itself).
+pub(crate) fn certificate_free_metric<S: MetriplecticSystem>(basis: SosBasis) -> Vec<usize> {
+    let tables = basis.tables::<S>();
+    let size = S::METRIC_EXPONENTS.len();
+    (0..S::DIM * (S::DIM + 1) / 2)
+        .flat_map(|pair| {
+            tables
+                .matching
+                .iter()
+                .enumerate()
+                .filter(|(_, pairs)| S::REGION_CERTIFICATE.is_some() || !pairs.is_empty())
+                .map(move |(alpha, _)| pair * size + alpha)
+        })
+        .collect()
+}
+
+/// Adds the support's zero metric coefficients and the gauge as equality
+/// rows on θ (in the variables from `theta_column`). Coefficients the
+/// certificate already forces to zero get no row: a repeated equality
+/// would make the constraint matrix rank-deficient.
+pub(crate) fn add_metric_restrictions<S: MetriplecticSystem>(
+    problem: &mut L1Problem,
+    options: &SearchOptions,
+    theta_column: usize,
+) -> Result<()> {
+    let free = certificate_free_metric::<S>(options.sos);
+    let zeros: Vec<usize> = options
+        .support
+        .metric_zeros()
+        .iter()
+        .copied()
+        .filter(|t| free.binary_search(t).is_ok())
+        .collect();
+    let mut entries: Vec<(usize, usize, f64)> = zeros
+        .iter()
+        .enumerate()
+        .map(|(row, &t)| (row, theta_column + t, 1.0))
+        .collect();
+    let mut rhs = vec![0.0; zeros.len()];
+    if let Some(gauge) = options.gauge {
+        let (row, value) = gauge.row::<S>();
+        let at = rhs.len();
+        entries.extend(row.into_iter().map(|(t, w)| (at, theta_column + t, w)));
+        rhs.push(value);
+    }
+    if !rhs.is_empty() {
+        problem.constrain(Cone::Zero(rhs.len()), entries, rhs)?;
+    }
+    Ok(())
 }

@@ -1,0 +1,491 @@
+//! Which coefficient combinations the data determine.
+//!
+//! The vector field f(x) = (Π + K(x; θ))(∇H + J(x)ᵀψ) is bilinear in
+//! (ψ, θ), so its Jacobian with respect to the coefficients, stacked over
+//! the data's equations, is exact: the entropy columns are the entropy
+//! search's rows (M Jᵀ), the metric columns the metric search's rows
+//! (θ ↦ K(x; θ)∇E). Its numerical null space holds the directions along
+//! which the fit does not change to first order — the combinations the data
+//! cannot determine.
+//!
+//! One such direction is structural. If Π∇E = 0 on the data then
+//! (cK, E/c) fits exactly as well as (K, E) for every c > 0: with
+//! c = 1 + ε the change is δK = εK, δS = −εE, and the field changes by
+//! −εΠ∇E = 0. When H lies in the entropy basis (its coefficients h there),
+//! that is the coefficient direction (δθ, δψ) = (θ, −(ψ + h)), and the
+//! report names it.
+
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+use crate::data::IdentificationData;
+use crate::error::{invalid, Result};
+use crate::identify::search::{certificate_free_metric, entropy_regression, metric_regression};
+use crate::identify::SearchOptions;
+use crate::model::{polynomial, Model};
+use crate::system::{metric_pair_index, MetriplecticSystem};
+
+/// Options of [`identifiability`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct IdentifiabilityOptions {
+    /// Directions whose singular value (of the column-normalised Jacobian,
+    /// relative to its largest) is at most this count as undetermined.
+    /// Default 1e-8: far below what noise-free fits reach (their residuals
+    /// are 1e-12 and smaller) and far above rounding.
+    pub tolerance: f64,
+    /// The parameterisation the run used: its support (coefficients held at
+    /// zero are not unknowns), SOS tables (which metric coefficients the
+    /// certificate leaves free) and gauge (a fixed gauge removes the
+    /// direction it normalises). Default [`SearchOptions::default`].
+    pub search: SearchOptions,
+}
+
+impl Default for IdentifiabilityOptions {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-8,
+            search: SearchOptions::default(),
+        }
+    }
+}
+
+/// What produces a flat direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FlatKind {
+    /// The structural scale symmetry (K, E) ↦ (cK, E/c), exact because
+    /// Π∇E = 0 on the data.
+    ScaleSymmetry,
+    /// A direction the data do not determine for no structural reason the
+    /// report knows (too few or too similar samples, or a symmetry of this
+    /// particular system): more varied data, a smaller basis, a gauge or a
+    /// support fix it.
+    Data,
+}
+
+/// A combination of coefficients the data cannot determine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlatDirection {
+    /// What produces it.
+    pub kind: FlatKind,
+    /// How little the fit changes along it: ‖J v‖ relative to the largest
+    /// singular value, for the direction v in column-normalised units.
+    pub singular_value: f64,
+    /// The direction's entropy part δψ (all coefficients, largest |entry| of
+    /// the whole direction 1).
+    pub entropy: Vec<f64>,
+    /// The direction's metric part δθ (all coefficients).
+    pub metric: Vec<f64>,
+    /// δS and δK as polynomials in the state names.
+    pub description: String,
+}
+
+/// The identifiability report of a model on a dataset; see
+/// [`identifiability`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Identifiability {
+    /// Number of unknown coefficients analysed: the free entropy
+    /// coefficients and the metric coefficients the certificate and support
+    /// leave free, less one for a gauge.
+    pub unknowns: usize,
+    /// Number of independent combinations the data determine.
+    pub rank: usize,
+    /// Singular values of the column-normalised Jacobian, descending,
+    /// relative to the largest.
+    pub singular_values: Vec<f64>,
+    /// Whether Π∇E = 0 on the data, so that (cK, E/c) fits as well as
+    /// (K, E) (relative size of Π∇E against (Π + K)∇E below the tolerance).
+    pub scale_symmetry: bool,
+    /// Whether the options' gauge removes the scale symmetry.
+    pub gauge_fixed: bool,
+    /// The directions the data cannot determine (`unknowns − rank` of them).
+    pub flat_directions: Vec<FlatDirection>,
+}
+
+impl Identifiability {
+    /// Whether the data determine every coefficient.
+    pub fn is_identifiable(&self) -> bool {
+        self.flat_directions.is_empty()
+    }
+}
+
+impl std::fmt::Display for Identifiability {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let smallest = self.singular_values.last().copied().unwrap_or(0.0);
+        if self.is_identifiable() {
+            write!(
+                f,
+                "identifiable: the data determine all {} coefficients (smallest relative singular value {smallest:.2e})",
+                self.unknowns
+            )?;
+            if self.scale_symmetry && self.gauge_fixed {
+                write!(
+                    f,
+                    "; the scale symmetry (K, E) -> (cK, E/c) is fixed by the gauge"
+                )?;
+            }
+            return Ok(());
+        }
+        writeln!(
+            f,
+            "not identifiable: the data determine {} of {} coefficient combinations; undetermined:",
+            self.rank, self.unknowns
+        )?;
+        for direction in &self.flat_directions {
+            let name = match direction.kind {
+                FlatKind::ScaleSymmetry => {
+                    "scale symmetry (K, E) -> (cK, E/c), since Π∇E = 0 on the data"
+                }
+                FlatKind::Data => "not determined by these data",
+            };
+            writeln!(
+                f,
+                "  - {name} (singular value {:.2e}): {}",
+                direction.singular_value, direction.description
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Rows of the Jacobian are reduced to a triangular factor this many at a time.
+const CHUNK_ROWS: usize = 2048;
+
+/// The identifiability report of `model` on `data`: the singular values of
+/// the exact Jacobian of the stacked vector field with respect to the free
+/// coefficients (ψ, θ), its flat directions in readable form, and whether
+/// the structural scale symmetry (K, E) ↦ (cK, E/c) holds on the data.
+///
+/// Columns are normalised to unit length first, so that the singular values
+/// do not depend on the units of the coefficients. Errors on a dataset of
+/// the wrong dimension, a support or gauge that does not fit `S`, or a
+/// failed singular value decomposition.
+pub fn identifiability<S: MetriplecticSystem>(
+    model: &Model<S>,
+    data: &impl IdentificationData,
+    options: &IdentifiabilityOptions,
+) -> Result<Identifiability> {
+    crate::data::check_dataset::<S>(data)?;
+    options.search.validate_for::<S>()?;
+    if !(options.tolerance.is_finite() && options.tolerance > 0.0 && options.tolerance < 1.0) {
+        return Err(invalid(
+            "identifiability tolerance",
+            format!("{} is not in (0, 1)", options.tolerance),
+        ));
+    }
+    let psi = model.entropy_coefficients();
+    let theta = model.metric_coefficients();
+    let support = &options.search.support;
+    let free_psi = support.free_entropy::<S>();
+    let free_theta: Vec<usize> = certificate_free_metric::<S>(options.search.sos)
+        .into_iter()
+        .filter(|t| support.metric_zeros().binary_search(t).is_err())
+        .collect();
+    let metric_rows = metric_regression::<S>(data, psi)?;
+    let entropy_rows = entropy_regression::<S>(data, theta)?;
+    // Columns: free θ, then free ψ.
+    let columns = free_theta.len() + free_psi.len();
+    let column = |row: usize, c: usize| {
+        if c < free_theta.len() {
+            metric_rows.rows[row * metric_rows.width + free_theta[c]]
+        } else {
+            entropy_rows.rows[row * entropy_rows.width + free_psi[c - free_theta.len()]]
+        }
+    };
+    let rows = metric_rows.len();
+    let mut norms = vec![0.0_f64; columns];
+    for row in 0..rows {
+        for (c, norm) in norms.iter_mut().enumerate() {
+            *norm += column(row, c).powi(2);
+        }
+    }
+    norms.iter_mut().for_each(|n| *n = n.sqrt());
+    let largest_norm = norms.iter().fold(0.0_f64, |m, n| m.max(*n));
+    // A column without data is scaled by 1: it stays zero and is flat.
+    let scale: Vec<f64> = norms
+        .iter()
+        .map(|&n| {
+            if n > 1e-300 * largest_norm.max(1e-300) {
+                n
+            } else {
+                1.0
+            }
+        })
+        .collect();
+
+    // Coordinates: the free coefficients, each divided by its column norm;
+    // with a gauge, only the directions that keep it.
+    let mut basis = DMatrix::<f64>::identity(columns, columns);
+    let gauge_fixed = options.search.gauge.is_some();
+    if let Some(gauge) = options.search.gauge {
+        let (row, _) = gauge.row::<S>();
+        let mut g = vec![0.0; columns];
+        for (t, w) in row {
+            if let Ok(c) = free_theta.binary_search(&t) {
+                // In scaled coordinates y = D c the gauge reads (g / D)·y.
+                g[c] = w / scale[c];
+            }
+        }
+        basis = orthogonal_complement(&g);
+    }
+
+    // R of the QR factorisation of J D⁻¹ B, a chunk of rows at a time.
+    let width = basis.ncols();
+    let mut r = DMatrix::<f64>::zeros(0, width);
+    let mut start = 0;
+    while start < rows {
+        let end = (start + CHUNK_ROWS).min(rows);
+        let chunk =
+            DMatrix::from_fn(end - start, columns, |i, c| column(start + i, c) / scale[c]) * &basis;
+        let stacked = DMatrix::from_fn(r.nrows() + chunk.nrows(), width, |i, c| {
+            if i < r.nrows() {
+                r[(i, c)]
+            } else {
+                chunk[(i - r.nrows(), c)]
+            }
+        });
+        r = stacked.qr().r();
+        start = end;
+    }
+    // A square factor (zero rows when there are fewer equations than unknowns).
+    let square = DMatrix::from_fn(
+        width,
+        width,
+        |i, c| {
+            if i < r.nrows() {
+                r[(i, c)]
+            } else {
+                0.0
+            }
+        },
+    );
+    let (_, singular, v) = crate::solve::linalg::svd(&square)
+        .ok_or_else(|| invalid("identifiability", "the singular value decomposition failed"))?;
+    let top = singular
+        .first()
+        .copied()
+        .unwrap_or(0.0)
+        .max(f64::MIN_POSITIVE);
+    let relative: Vec<f64> = singular.iter().map(|s| s / top).collect();
+    let rank = relative.iter().filter(|&&s| s > options.tolerance).count();
+
+    // The scale direction in scaled coordinates, if H is in the entropy basis.
+    let scale_direction = hamiltonian_coefficients::<S>(data).and_then(|h| {
+        let mut direction = vec![0.0; columns];
+        for (c, &t) in free_theta.iter().enumerate() {
+            direction[c] = theta[t] * scale[c];
+        }
+        let mut outside = 0.0_f64;
+        for (k, (&value, &hk)) in psi.iter().zip(&h).enumerate() {
+            match free_psi.binary_search(&k) {
+                Ok(c) => {
+                    direction[free_theta.len() + c] = -(value + hk) * scale[free_theta.len() + c]
+                }
+                Err(_) => outside = outside.max((value + hk).abs()),
+            }
+        }
+        let size = norm(&direction);
+        (size > 0.0 && outside <= 1e-9 * size).then(|| {
+            direction.iter_mut().for_each(|d| *d /= size);
+            direction
+        })
+    });
+    // ‖J D⁻¹ u‖ for the unit scaled direction u, relative to the largest singular value.
+    let stretch = |u: &[f64]| {
+        let mut sum = 0.0;
+        for row in 0..rows {
+            let value: f64 = (0..columns).map(|c| column(row, c) / scale[c] * u[c]).sum();
+            sum += value * value;
+        }
+        sum.sqrt() / top
+    };
+    let scale_symmetry = scale_direction
+        .as_ref()
+        .is_some_and(|u| stretch(u) <= options.tolerance);
+
+    // The null space in scaled coordinates: B times the trailing columns of V.
+    let null: Vec<Vec<f64>> = (rank..width)
+        .map(|j| {
+            (0..columns)
+                .map(|c| (0..width).map(|i| basis[(c, i)] * v[(i, j)]).sum())
+                .collect()
+        })
+        .collect();
+    let mut flat = Vec::new();
+    let mut remaining = null.clone();
+    if let (true, false, Some(u)) = (scale_symmetry, gauge_fixed, &scale_direction) {
+        if !remaining.is_empty() {
+            flat.push((FlatKind::ScaleSymmetry, u.clone()));
+            // The other null directions, orthogonal to the scale direction.
+            remaining = project_out(&remaining, u);
+        }
+    }
+    for direction in remaining {
+        flat.push((FlatKind::Data, direction));
+    }
+    let flat_directions = flat
+        .into_iter()
+        .map(|(kind, u)| {
+            let singular_value = stretch(&u);
+            readable::<S>(kind, singular_value, &u, &scale, &free_theta, &free_psi)
+        })
+        .collect();
+    Ok(Identifiability {
+        unknowns: width,
+        rank,
+        singular_values: relative,
+        scale_symmetry,
+        gauge_fixed,
+        flat_directions,
+    })
+}
+
+/// The direction in coefficient units (c = D⁻¹ y), scaled to largest
+/// |entry| 1 with the sign that makes its largest entry positive, and its
+/// description.
+fn readable<S: MetriplecticSystem>(
+    kind: FlatKind,
+    singular_value: f64,
+    scaled: &[f64],
+    scale: &[f64],
+    free_theta: &[usize],
+    free_psi: &[usize],
+) -> FlatDirection {
+    let mut entropy = vec![0.0; S::entropy_coefficient_count()];
+    let mut metric = vec![0.0; S::metric_coefficient_count()];
+    for (c, (&y, &d)) in scaled.iter().zip(scale).enumerate() {
+        match c.checked_sub(free_theta.len()) {
+            None => metric[free_theta[c]] = y / d,
+            Some(k) => entropy[free_psi[k]] = y / d,
+        }
+    }
+    let largest =
+        entropy
+            .iter()
+            .chain(&metric)
+            .fold(0.0_f64, |m, v| if v.abs() > m.abs() { *v } else { m });
+    if largest != 0.0 {
+        entropy.iter_mut().chain(metric.iter_mut()).for_each(|v| {
+            *v /= largest;
+            // Entries below the SVD's accuracy are noise, not part of the direction.
+            if v.abs() < 1e-9 {
+                *v = 0.0;
+            }
+        });
+    }
+    let names = S::STATE_NAMES;
+    let mut description = format!(
+        "δS ∝ {}",
+        polynomial(names, S::ENTROPY_EXPONENTS, &entropy, 4)
+    );
+    let (n, basis) = (S::DIM, S::METRIC_EXPONENTS.len());
+    for j in 0..n {
+        for k in j..n {
+            let pair = metric_pair_index(n, j, k);
+            let part = &metric[pair * basis..(pair + 1) * basis];
+            if part.iter().any(|v| *v != 0.0) {
+                description.push_str(&format!(
+                    ", δK[{},{}] ∝ {}",
+                    names[j],
+                    names[k],
+                    polynomial(names, S::METRIC_EXPONENTS, part, 4)
+                ));
+            }
+        }
+    }
+    FlatDirection {
+        kind,
+        singular_value,
+        entropy,
+        metric,
+        description,
+    }
+}
+
+/// The coefficients h of H in the entropy basis (∇H = J(x)ᵀh on the data's
+/// states), or `None` if H is not in its span (relative residual above 1e-9).
+fn hamiltonian_coefficients<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+) -> Option<Vec<f64>> {
+    let states = data_states(data);
+    let (n, p) = (S::DIM, S::entropy_coefficient_count());
+    // Enough states to pin p coefficients, spread over the data.
+    let wanted = states.len().min((2 * p).max(500));
+    let stride = (states.len() / wanted.max(1)).max(1);
+    let chosen: Vec<&[f64]> = states.iter().step_by(stride).copied().collect();
+    let mut a = DMatrix::<f64>::zeros(chosen.len() * n, p);
+    let mut b = nalgebra::DVector::<f64>::zeros(chosen.len() * n);
+    let mut jacobian = vec![0.0; p * n];
+    let mut grad = vec![0.0; n];
+    for (i, x) in chosen.iter().enumerate() {
+        S::entropy_jacobian(x, &mut jacobian);
+        S::hamiltonian_gradient(x, &mut grad);
+        for j in 0..n {
+            for k in 0..p {
+                a[(i * n + j, k)] = jacobian[k * n + j];
+            }
+            b[i * n + j] = grad[j];
+        }
+    }
+    if a.nrows() < p {
+        return None;
+    }
+    let h = a.clone().svd(true, true).solve(&b, 1e-14).ok()?;
+    let residual = (&a * &h - &b).norm();
+    (residual <= 1e-9 * b.norm().max(f64::MIN_POSITIVE)).then(|| h.iter().copied().collect())
+}
+
+/// The distinct sampled states of the data.
+fn data_states(data: &impl IdentificationData) -> Vec<&[f64]> {
+    let equations = data.equations();
+    equations.states.chunks_exact(equations.dim).collect()
+}
+
+/// An orthonormal basis (columns) of the vectors orthogonal to `g`, by a
+/// Householder reflection that maps g to a coordinate axis.
+fn orthogonal_complement(g: &[f64]) -> DMatrix<f64> {
+    let k = g.len();
+    let size = norm(g);
+    if size == 0.0 {
+        return DMatrix::identity(k, k);
+    }
+    // The axis i where g is largest, for a well-conditioned reflection.
+    let i = (0..k).fold(
+        0,
+        |best, j| if g[j].abs() > g[best].abs() { j } else { best },
+    );
+    let sign = if g[i] >= 0.0 { 1.0 } else { -1.0 };
+    let mut w: Vec<f64> = g.iter().map(|v| v / size).collect();
+    w[i] += sign;
+    let w_norm = norm(&w);
+    w.iter_mut().for_each(|v| *v /= w_norm);
+    let householder =
+        DMatrix::from_fn(k, k, |a, b| f64::from(u8::from(a == b)) - 2.0 * w[a] * w[b]);
+    // Column i of the reflection is ∓g/|g|; the others span its complement.
+    let kept: Vec<usize> = (0..k).filter(|&j| j != i).collect();
+    DMatrix::from_fn(k, k - 1, |a, b| householder[(a, kept[b])])
+}
+
+/// The vectors with their component along the unit vector `u` removed,
+/// re-orthonormalised; one fewer than given when `u` lay in their span.
+fn project_out(vectors: &[Vec<f64>], u: &[f64]) -> Vec<Vec<f64>> {
+    let mut kept: Vec<Vec<f64>> = Vec::new();
+    for v in vectors {
+        let mut w = v.clone();
+        for basis in std::iter::once(u).chain(kept.iter().map(Vec::as_slice)) {
+            let dot: f64 = w.iter().zip(basis).map(|(a, b)| a * b).sum();
+            w.iter_mut().zip(basis).for_each(|(a, b)| *a -= dot * b);
+        }
+        let size = norm(&w);
+        if size > 1e-6 {
+            w.iter_mut().for_each(|a| *a /= size);
+            kept.push(w);
+        }
+    }
+    kept.truncate(vectors.len().saturating_sub(1));
+    kept
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
