@@ -16,6 +16,7 @@ pub mod from_csv;
 pub mod reproduction;
 pub mod synthetic_csv;
 pub mod systems;
+pub mod what_the_data_determine;
 
 pub use metriplectic_runtime;
 

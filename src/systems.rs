@@ -29,6 +29,21 @@ metriplectic! {
 }
 
 metriplectic! {
+    /// [`Linear2d`] with its entropy basis declared at degree 10, above the
+    /// truth's 8: the input of degree selection, which must find 8.
+    pub struct Linear2dDegree10;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+    entropy degree 10;
+    metric degree 0;
+    reference {
+        entropy = -0.5 * (p^2 + 4*q^4 - 4*q^2)^2 - (0.5*p^2 + 0.5*q^2);
+        metric = [[1, 0], [0, 1]];
+    }
+}
+
+metriplectic! {
     /// The paper's SO(3) example: a free rigid body on so(3)* (Lie–Poisson
     /// Π(p) = p̂, H = ½ pᵀ J⁻¹ p) whose free energy E = −½(|p|² − 1)²
     /// vanishes on the unit sphere. Since p̂∇E = 0 the true flow is radial.

@@ -53,6 +53,7 @@
 //! | model | [`Model`] (evaluation, JSON files), [`WriteMode`]; its metric's proof: [`GramCertificate`], [`GramMatrix`], [`CertificateCheck`] |
 //! | data | [`Dataset`], [`WeakDataset`] (the weak form: states only), [`IdentificationData`], [`Trajectory`], [`read_trajectories`], [`write_trajectories`] (CSV), [`DerivativeMethod`], [`estimate_derivatives`], [`fit_smoothing_spline`] |
 //! | identify | [`identify`] and its variants, [`IdentifyConfig`], [`IterationScheme`], [`TrustRegion`], [`CheckpointConfig`], [`Identification`], [`History`], [`StopReason`], [`Cost`], [`model_cost`] |
+//! | analysis | [`identifiability`] (flat directions, the scale symmetry), [`Gauge`], [`Support`] (degree caps), [`select_degrees`], [`sparsify`], [`bootstrap`] |
 //! | searches | [`entropy_search`], [`metric_search`], [`joint_step`] with [`SearchOptions`] and [`SearchReport`] |
 //! | solve | [`L1Problem`], [`Regression`], [`Cone`], [`solve_l1`], [`L1Solution`], [`SolverSettings`], [`SolverBackend`], [`SolveStatus`] |
 //! | simulate | [`simulate`], [`integrate`], [`synthesize`], [`free_energy_diagnostics`] and their options |
@@ -95,7 +96,9 @@ mod system;
 mod test_system;
 
 pub use analysis::{
-    identifiability, FlatDirection, FlatKind, Identifiability, IdentifiabilityOptions,
+    bootstrap, identifiability, select_degrees, sparsify, Bootstrap, BootstrapOptions,
+    DegreeCandidate, DegreeOptions, DegreeSelection, FlatDirection, FlatKind, Identifiability,
+    IdentifiabilityOptions, Interval, SparseCandidate, SparseOptions, Sparsification,
 };
 pub use data::split_by_trajectory;
 pub use data::{

@@ -22,6 +22,7 @@
 //! | `region_certificates` | state-dependent metrics certified on a region |
 //! | `oversized_bases` | entropy bases larger than the truth needs |
 //! | `plot` | figures |
+//! | `what_the_data_determine` | identifiability reports, the gauge, degree selection, sparse refits, bootstrap |
 
 mod common;
 
@@ -51,3 +52,4 @@ mod solver_status;
 mod solver_trouble;
 mod stop_reasons;
 mod stopping;
+mod what_the_data_determine;

@@ -191,6 +191,18 @@ impl sealed::Sealed for Dataset {
     fn select(&self, indices: &[usize]) -> Result<Self> {
         Dataset::select(self, indices)
     }
+
+    fn concat(parts: &[&Self]) -> Result<Self> {
+        let (first, rest) = parts.split_first().ok_or_else(|| Error::InvalidArgument {
+            what: "datasets".to_owned(),
+            reason: "at least one is required".to_owned(),
+        })?;
+        let mut all = (*first).clone();
+        for part in rest {
+            all.extend(part)?;
+        }
+        Ok(all)
+    }
 }
 
 impl IdentificationData for Dataset {}

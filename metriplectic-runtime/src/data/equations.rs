@@ -42,6 +42,9 @@ pub(crate) mod sealed {
         /// The equations at `indices`, in that order (repeats allowed),
         /// with only the samples they read.
         fn select(&self, indices: &[usize]) -> crate::Result<Self>;
+        /// The equations of all `parts` (same dimension), in order, as one
+        /// dataset; errors on no parts or differing dimensions.
+        fn concat(parts: &[&Self]) -> crate::Result<Self>;
     }
 }
 

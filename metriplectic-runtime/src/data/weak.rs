@@ -408,6 +408,40 @@ impl sealed::Sealed for WeakDataset {
         out.drop_unused_samples();
         Ok(out)
     }
+
+    fn concat(parts: &[&Self]) -> Result<Self> {
+        let first = parts
+            .first()
+            .ok_or_else(|| invalid("weak-form datasets", "at least one is required"))?;
+        let dim = first.dim;
+        let mut all = Self {
+            dim,
+            states: Vec::new(),
+            targets: Vec::new(),
+            offsets: vec![0],
+            samples: Vec::new(),
+            weights: Vec::new(),
+        };
+        for (index, part) in parts.iter().enumerate() {
+            if part.dim != dim {
+                return Err(invalid(
+                    "weak-form datasets",
+                    format!(
+                        "dataset {index} has {} state variables, dataset 0 has {dim}",
+                        part.dim
+                    ),
+                ));
+            }
+            let (base, start) = (all.states.len() / dim, all.samples.len());
+            all.states.extend_from_slice(&part.states);
+            all.targets.extend_from_slice(&part.targets);
+            all.samples.extend(part.samples.iter().map(|s| s + base));
+            all.weights.extend_from_slice(&part.weights);
+            all.offsets
+                .extend(part.offsets[1..].iter().map(|o| o + start));
+        }
+        Ok(all)
+    }
 }
 
 impl IdentificationData for WeakDataset {}

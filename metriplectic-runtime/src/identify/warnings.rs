@@ -84,8 +84,14 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     model: &Model<S>,
     config: &IdentifyConfig,
 ) -> Result<Vec<IdentifyWarning>> {
-    let free = super::search::certificate_free_metric::<S>(config.search.sos);
-    let p = S::entropy_coefficient_count();
+    // The unknowns: what the certificate and the support leave free.
+    let support = &config.search.support;
+    let free: Vec<usize> = super::search::certificate_free_metric::<S>(config.search.sos)
+        .into_iter()
+        .filter(|t| support.metric_zeros().binary_search(t).is_err())
+        .collect();
+    let free_entropy = support.free_entropy::<S>();
+    let p = free_entropy.len();
     let equations = data.equation_count() * S::DIM;
     let mut warnings = Vec::new();
     if equations < p + free.len() {
@@ -95,7 +101,7 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         });
     }
     let entropy = entropy_regression::<S>(data, model.metric_coefficients())?;
-    if let Some(rank) = numerical_rank(&entropy, &(0..p).collect::<Vec<_>>()) {
+    if let Some(rank) = numerical_rank(&entropy, &free_entropy) {
         if rank < p {
             warnings.push(IdentifyWarning::RankDeficient {
                 block: CoefficientBlock::Entropy,

@@ -1,0 +1,145 @@
+//! Degree selection without recompiling: the macro's bases are ordered by
+//! degree, so a lower-degree model is the declared one with the higher
+//! monomials held at zero ([`Support::degree_caps`]). Each pair of caps is
+//! identified on training data and scored on validation data.
+
+use serde::{Deserialize, Serialize};
+
+use super::refit::{preferred, refit};
+use crate::data::IdentificationData;
+use crate::error::{invalid, Result};
+use crate::identify::search::certificate_free_metric;
+use crate::identify::{Cost, IdentifyConfig, Support};
+use crate::model::Model;
+use crate::system::MetriplecticSystem;
+
+/// Options of [`select_degrees`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DegreeOptions {
+    /// Entropy degrees tried. Default `None`: 1 to the declared degree.
+    pub entropy: Option<Vec<u32>>,
+    /// Metric degrees tried. Default `None`: the even degrees 0 to the
+    /// declared one. Caps that leave the same metric coefficients free
+    /// (the global certificate keeps only constants) are tried once.
+    pub metric: Option<Vec<u32>>,
+    /// A lower degree is preferred while its validation cost is at most
+    /// (1 + `parsimony`) times the best, plus the run's tolerance times the
+    /// data's scale (so that exact fits count as equal). Default 0.02.
+    pub parsimony: f64,
+}
+
+impl Default for DegreeOptions {
+    fn default() -> Self {
+        Self {
+            entropy: None,
+            metric: None,
+            parsimony: 0.02,
+        }
+    }
+}
+
+/// One pair of degree caps, identified and scored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DegreeCandidate {
+    /// Entropy degree cap.
+    pub entropy_degree: u32,
+    /// Metric degree cap.
+    pub metric_degree: u32,
+    /// Free coefficients at these caps (entropy and metric).
+    pub coefficients: usize,
+    /// The identified model's cost on the validation data.
+    pub validation: Cost,
+}
+
+/// The result of [`select_degrees`].
+#[derive(Debug, Clone)]
+pub struct DegreeSelection<S: MetriplecticSystem> {
+    /// The model at the chosen degrees.
+    pub model: Model<S>,
+    /// The chosen caps as a support, to pass on (e.g. to
+    /// [`sparsify`](super::sparsify) or [`bootstrap`](super::bootstrap)).
+    pub support: Support,
+    /// Index of the chosen candidate in `candidates`.
+    pub chosen: usize,
+    /// Every candidate tried, by increasing entropy then metric degree.
+    pub candidates: Vec<DegreeCandidate>,
+}
+
+/// Identifies `S` on `train` at every pair of degree caps of `options` and
+/// returns the lowest whose validation cost is within the parsimony margin
+/// of the best: the degrees the data need, from a declared maximum above them.
+///
+/// Errors on a cap above the declared degree, invalid data or options, or
+/// an identification that fails outright.
+pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
+    train: &D,
+    validation: &D,
+    config: &IdentifyConfig,
+    options: &DegreeOptions,
+) -> Result<DegreeSelection<S>> {
+    if !(options.parsimony.is_finite() && options.parsimony >= 0.0) {
+        return Err(invalid(
+            "parsimony",
+            format!("{} is not a finite non-negative number", options.parsimony),
+        ));
+    }
+    let entropy_degrees = options
+        .entropy
+        .clone()
+        .unwrap_or_else(|| (1..=S::ENTROPY_DEGREE).collect());
+    let metric_degrees = options
+        .metric
+        .clone()
+        .unwrap_or_else(|| (0..=S::METRIC_DEGREE).step_by(2).collect());
+    if entropy_degrees.is_empty() || metric_degrees.is_empty() {
+        return Err(invalid("degrees", "no entropy or no metric degree to try"));
+    }
+    let certified = certificate_free_metric::<S>(config.search.sos);
+    let mut candidates = Vec::new();
+    let mut fits = Vec::new();
+    let mut seen = Vec::new();
+    for &r in &entropy_degrees {
+        for &s in &metric_degrees {
+            let caps = Support::degree_caps::<S>(r, s)?;
+            let support = config
+                .search
+                .support
+                .clone()
+                .with_zeros(caps.entropy_zeros(), caps.metric_zeros());
+            let free_metric: Vec<usize> = certified
+                .iter()
+                .copied()
+                .filter(|t| support.metric_zeros().binary_search(t).is_err())
+                .collect();
+            let key = (support.free_entropy::<S>(), free_metric.clone());
+            if seen.contains(&key) {
+                continue;
+            }
+            let fit = refit::<S>(train, validation, config, &caps, None)?;
+            candidates.push(DegreeCandidate {
+                entropy_degree: r,
+                metric_degree: s,
+                coefficients: key.0.len() + free_metric.len(),
+                validation: fit.validation,
+            });
+            seen.push(key);
+            fits.push((fit.model, support));
+        }
+    }
+    let floor = config.tolerance
+        * validation.equations().scale()
+        * (validation.equation_count() * S::DIM) as f64;
+    let sizes: Vec<(usize, f64)> = candidates
+        .iter()
+        .map(|c| (c.coefficients, c.validation.sum))
+        .collect();
+    let chosen = preferred(&sizes, options.parsimony, floor).unwrap_or(0);
+    let (model, support) = fits.swap_remove(chosen);
+    Ok(DegreeSelection {
+        model,
+        support,
+        chosen,
+        candidates,
+    })
+}
