@@ -44,8 +44,9 @@ use std::time::Instant;
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identify_with_observer, phase_portrait_2d, trajectories_3d, trajectory_overlay, CsvError,
-    Identification, IntegratorOptions, IterationRecord, Labels, OutputTimes, Score, Simulation,
+    identifiability, identify_with_observer, phase_portrait_2d, trajectories_3d,
+    trajectory_overlay, CsvError, Identifiability, IdentifiabilityOptions, Identification,
+    IntegratorOptions, IterationRecord, Labels, OutputTimes, Score, Simulation,
 };
 use serde::{Deserialize, Serialize};
 
@@ -324,6 +325,12 @@ pub struct Summary {
     /// free energy decreased beyond the integrator's tolerance (0 for a
     /// model with K ⪰ 0).
     pub free_energy_decrease_fraction: f64,
+    /// Whether the training data determine every coefficient (the
+    /// identifiability report of the model on the training equations).
+    pub identifiable: bool,
+    /// The coefficient combinations the training data cannot determine,
+    /// in words (e.g. the scale symmetry (K, E) ↦ (cK, E/c)).
+    pub unidentifiable_directions: Vec<String>,
     /// What the data cannot determine, figures that could not be drawn, …
     pub warnings: Vec<String>,
     /// Wall time of the identification.
@@ -568,6 +575,17 @@ impl Equations {
             Self::Pointwise(data) => model.score(data),
         }
     }
+
+    fn identifiability<S: MetriplecticSystem>(
+        &self,
+        model: &Model<S>,
+    ) -> metriplectic_runtime::Result<Identifiability> {
+        let options = IdentifiabilityOptions::default();
+        match self {
+            Self::Weak(data) => identifiability(model, data, &options),
+            Self::Pointwise(data) => identifiability(model, data, &options),
+        }
+    }
 }
 
 /// What one run needs besides the system type.
@@ -639,6 +657,7 @@ impl Context<'_> {
         let model = &identification.model;
 
         let train_score = train_equations.score(model)?;
+        let identifiable = train_equations.identifiability(model)?;
         let validation_score = validation_equations
             .as_ref()
             .map(|data| data.score(model))
@@ -727,6 +746,12 @@ impl Context<'_> {
                 .map(|s| s.r_squared)
                 .filter(|r| r.is_finite()),
             free_energy_decrease_fraction: checked.free_energy_decrease_fraction,
+            identifiable: identifiable.is_identifiable(),
+            unidentifiable_directions: identifiable
+                .flat_directions
+                .iter()
+                .map(|d| format!("{:?}: {}", d.kind, d.description))
+                .collect(),
             warnings,
             seconds_identify,
             seconds_total: self.started.elapsed().as_secs_f64(),
@@ -1116,6 +1141,20 @@ fn report<S: MetriplecticSystem>(summary: &Summary, model: &Model<S>, out: &Path
         summary.train_relative_error,
     );
     let _ = writeln!(text, "identified model:\n{model}");
+    if summary.identifiable {
+        let _ = writeln!(
+            text,
+            "identifiable: the training data determine every coefficient"
+        );
+    } else {
+        let _ = writeln!(
+            text,
+            "not identifiable; the training data do not determine:"
+        );
+        for direction in &summary.unidentifiable_directions {
+            let _ = writeln!(text, "  {direction}");
+        }
+    }
     for warning in &summary.warnings {
         let _ = writeln!(text, "warning: {warning}");
     }

@@ -198,3 +198,29 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
         None => sorted[below],
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentile_intervals_interpolate_between_ranks() {
+        // Two columns: 0..=10 and their negatives, interleaved row-major.
+        let values: Vec<f64> = (0..=10)
+            .flat_map(|v| [f64::from(v), -f64::from(v)])
+            .collect();
+        let found = intervals(&values, 2, 0.9);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        let expected = [(0.5, 5.0, 9.5), (-9.5, -5.0, -0.5)];
+        for (interval, (lower, median, upper)) in found.iter().zip(expected) {
+            assert!(
+                close(interval.lower, lower)
+                    && close(interval.median, median)
+                    && close(interval.upper, upper),
+                "{interval:?}"
+            );
+        }
+        assert!(found[0].contains(9.4) && !found[0].contains(9.6));
+        assert_eq!(quantile(&[3.0], 0.975), 3.0);
+    }
+}

@@ -489,3 +489,29 @@ fn project_out(vectors: &[Vec<f64>], u: &[f64]) -> Vec<Vec<f64>> {
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_complement_is_orthonormal_and_orthogonal_to_the_vector() {
+        for g in [vec![1.0, 1.0, 1.0], vec![0.0, -2.0, 0.5, 3.0], vec![5.0]] {
+            let basis = orthogonal_complement(&g);
+            assert_eq!(basis.ncols(), g.len() - 1);
+            let gram = basis.transpose() * &basis;
+            assert!((gram - DMatrix::identity(g.len() - 1, g.len() - 1)).norm() < 1e-14);
+            let along = nalgebra::DVector::from_vec(g.clone()).transpose() * &basis;
+            assert!(along.norm() < 1e-14 * norm(&g));
+        }
+    }
+
+    #[test]
+    fn projecting_out_a_vector_in_the_span_drops_one_direction() {
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let vectors = vec![vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0]];
+        let kept = project_out(&vectors, &[s, s, 0.0]);
+        assert_eq!(kept.len(), 1);
+        assert!((kept[0][0] + kept[0][1]).abs() < 1e-15 && kept[0][2] == 0.0);
+    }
+}

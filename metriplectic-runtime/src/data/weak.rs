@@ -451,6 +451,35 @@ mod tests {
     use super::*;
     use crate::data::equations::sealed::Sealed;
 
+    #[test]
+    fn concatenated_parts_equal_the_dataset_of_all_trajectories() {
+        let trajectory = |phase: f64, count: usize| {
+            let t: Vec<f64> = (0..count).map(|k| 0.05 * k as f64).collect();
+            let x = t
+                .iter()
+                .flat_map(|t| [(t + phase).cos(), -(t + phase).sin()])
+                .collect();
+            Trajectory::new(vec!["q".into(), "p".into()], t, x, None).unwrap()
+        };
+        let all = [
+            trajectory(0.0, 40),
+            trajectory(1.0, 33),
+            trajectory(2.0, 50),
+        ];
+        let form = WeakForm::default();
+        let whole = WeakDataset::from_trajectories(&all, &form).unwrap();
+        let parts: Vec<WeakDataset> = all
+            .iter()
+            .map(|t| WeakDataset::from_trajectories(std::slice::from_ref(t), &form).unwrap())
+            .collect();
+        let joined = WeakDataset::concat(&parts.iter().collect::<Vec<_>>()).unwrap();
+        assert_eq!(joined, whole);
+        // Repeats are allowed (a bootstrap draws a part twice).
+        let twice = WeakDataset::concat(&[&parts[1], &parts[1]]).unwrap();
+        assert_eq!(twice.equation_count(), 2 * parts[1].equation_count());
+        assert!(WeakDataset::concat(&[]).is_err());
+    }
+
     /// The largest residual of the weak equations of x(t) = (cos t, −sin t),
     /// which solves ẋ = (x₂, −x₁), sampled at `count` uneven times on [0, 3].
     fn largest_residual(count: usize, form: &WeakForm) -> f64 {
