@@ -8,7 +8,6 @@ use serde::{Deserialize, Serialize};
 use super::refit::{preferred, refit};
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
-use crate::identify::search::certificate_free_metric;
 use crate::identify::{Cost, IdentifyConfig, Support};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
@@ -95,7 +94,6 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
     if entropy_degrees.is_empty() || metric_degrees.is_empty() {
         return Err(invalid("degrees", "no entropy or no metric degree to try"));
     }
-    let certified = certificate_free_metric::<S>(config.search.sos);
     let mut candidates = Vec::new();
     let mut fits = Vec::new();
     let mut seen = Vec::new();
@@ -107,11 +105,7 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
                 .support
                 .clone()
                 .with_zeros(caps.entropy_zeros(), caps.metric_zeros());
-            let free_metric: Vec<usize> = certified
-                .iter()
-                .copied()
-                .filter(|t| support.metric_zeros().binary_search(t).is_err())
-                .collect();
+            let free_metric = support.free_metric::<S>(config.search.sos);
             let key = (support.free_entropy::<S>(), free_metric.clone());
             if seen.contains(&key) {
                 continue;

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
-use crate::identify::search::{certificate_free_metric, entropy_regression, metric_regression};
+use crate::identify::search::{entropy_regression, metric_regression};
 use crate::identify::SearchOptions;
 use crate::model::{polynomial, Model};
 use crate::system::{metric_pair_index, MetriplecticSystem};
@@ -177,10 +177,7 @@ pub fn identifiability<S: MetriplecticSystem>(
     let theta = model.metric_coefficients();
     let support = &options.search.support;
     let free_psi = support.free_entropy::<S>();
-    let free_theta: Vec<usize> = certificate_free_metric::<S>(options.search.sos)
-        .into_iter()
-        .filter(|t| support.metric_zeros().binary_search(t).is_err())
-        .collect();
+    let free_theta = support.free_metric::<S>(options.search.sos);
     let metric_rows = metric_regression::<S>(data, psi)?;
     let entropy_rows = entropy_regression::<S>(data, theta)?;
     // Columns: free θ, then free ψ.

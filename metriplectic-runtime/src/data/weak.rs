@@ -156,14 +156,7 @@ impl WeakDataset {
             .first()
             .ok_or_else(|| invalid("trajectories", "at least one trajectory is required"))?;
         let dim = first.dim();
-        let mut data = Self {
-            dim,
-            states: Vec::new(),
-            targets: Vec::new(),
-            offsets: vec![0],
-            samples: Vec::new(),
-            weights: Vec::new(),
-        };
+        let mut data = Self::empty(dim);
         for (index, trajectory) in trajectories.iter().enumerate() {
             if trajectory.dim() != dim {
                 return Err(invalid(
@@ -195,6 +188,18 @@ impl WeakDataset {
         }
         data.drop_unused_samples();
         Ok(data)
+    }
+
+    /// No equations, in dimension `dim`.
+    fn empty(dim: usize) -> Self {
+        Self {
+            dim,
+            states: Vec::new(),
+            targets: Vec::new(),
+            offsets: vec![0],
+            samples: Vec::new(),
+            weights: Vec::new(),
+        }
     }
 
     /// Appends the equation of the window of `trajectory` starting at
@@ -414,14 +419,7 @@ impl sealed::Sealed for WeakDataset {
             .first()
             .ok_or_else(|| invalid("weak-form datasets", "at least one is required"))?;
         let dim = first.dim;
-        let mut all = Self {
-            dim,
-            states: Vec::new(),
-            targets: Vec::new(),
-            offsets: vec![0],
-            samples: Vec::new(),
-            weights: Vec::new(),
-        };
+        let mut all = Self::empty(dim);
         for (index, part) in parts.iter().enumerate() {
             if part.dim != dim {
                 return Err(invalid(

@@ -10,6 +10,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Result};
+use crate::identify::search::{certificate_free_metric, SosBasis};
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
 /// Which coefficients the searches may use; the others are held at zero.
@@ -130,6 +131,15 @@ impl Support {
     pub fn free_entropy<S: MetriplecticSystem>(&self) -> Vec<usize> {
         (0..S::entropy_coefficient_count())
             .filter(|k| self.entropy_zero.binary_search(k).is_err())
+            .collect()
+    }
+
+    /// The metric coefficients of `S` left free: those the certificate of
+    /// the `sos` tables leaves free, less those held at zero.
+    pub(crate) fn free_metric<S: MetriplecticSystem>(&self, sos: SosBasis) -> Vec<usize> {
+        certificate_free_metric::<S>(sos)
+            .into_iter()
+            .filter(|t| self.metric_zero.binary_search(t).is_err())
             .collect()
     }
 

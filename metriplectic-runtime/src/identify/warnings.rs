@@ -86,10 +86,7 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
 ) -> Result<Vec<IdentifyWarning>> {
     // The unknowns: what the certificate and the support leave free.
     let support = &config.search.support;
-    let free: Vec<usize> = super::search::certificate_free_metric::<S>(config.search.sos)
-        .into_iter()
-        .filter(|t| support.metric_zeros().binary_search(t).is_err())
-        .collect();
+    let free = support.free_metric::<S>(config.search.sos);
     let free_entropy = support.free_entropy::<S>();
     let p = free_entropy.len();
     let equations = data.equation_count() * S::DIM;
