@@ -63,6 +63,32 @@ metriplectic! {
 }
 
 metriplectic! {
+    /// A relaxing rigid body in the classical (GENERIC) form (not from the
+    /// paper): the free body on so(3)* with inertias 1, 2, 4
+    /// (H = ½ pᵀ J⁻¹ p, conserved) whose entropy S = −½|p|² − ⅛|p|⁴ is a
+    /// Casimir, produced by the metric K(p) = [v]ₓᵀ A [v]ₓ, v = ∇H, A ≻ 0:
+    /// degenerate along ∇H and a sum of squares, so K∇H ≡ 0 and
+    /// dS/dt = ∇Sᵀ K ∇S ≥ 0. The body keeps its energy and loses angular
+    /// momentum |p| until it spins about its axis of largest inertia.
+    pub struct ClassicalRigidBody;
+    state (px, py, pz);
+    poisson = [[0, -pz, py], [pz, 0, -px], [-py, px, 0]];
+    hamiltonian = 0.5 * px^2 + 0.25 * py^2 + 0.125 * pz^2;
+    entropy degree 4;
+    metric degree 2;
+    region ball(radius = 2);
+    classical;
+    reference {
+        entropy = -0.5 * (px^2 + py^2 + pz^2) - 0.125 * (px^2 + py^2 + pz^2)^2;
+        metric = [
+            [0.2*py^2 - 0.025*py*pz + 0.03125*pz^2, -0.4*px*py + 0.025*px*pz - 0.0125*pz^2, 0.05*px*py - 0.125*px*pz + 0.025*py*pz],
+            [-0.4*px*py + 0.025*px*pz - 0.0125*pz^2, 0.8*px^2 + 0.0625*pz^2, -0.1*px^2 + 0.05*px*pz - 0.125*py*pz],
+            [0.05*px*py - 0.125*px*pz + 0.025*py*pz, -0.1*px^2 + 0.05*px*pz - 0.125*py*pz, 0.5*px^2 - 0.2*px*py + 0.25*py^2]
+        ];
+    }
+}
+
+metriplectic! {
     /// A damped Duffing oscillator in a double well (not from the paper):
     /// ẍ = x − x³ − γẋ with γ = 0.5, as ẋ = v, v̇ = x − x³ − γv.
     ///
@@ -182,6 +208,17 @@ pub fn linear2d_data(count: usize, seed: u64) -> Dataset {
 /// States uniform in the ball of radius 1.5 with ẋ from [`RigidBody`]'s reference.
 pub fn rigid_body_data(count: usize, seed: u64) -> Dataset {
     reference_samples::<RigidBody>(count, seed, |rng| loop {
+        let p: Vec<f64> = (0..3).map(|_| rng.random_range(-1.5..1.5)).collect();
+        if p.iter().map(|v| v * v).sum::<f64>() <= 2.25 {
+            return p;
+        }
+    })
+}
+
+/// States uniform in the ball of radius 1.5 with ẋ from
+/// [`ClassicalRigidBody`]'s reference.
+pub fn classical_rigid_body_data(count: usize, seed: u64) -> Dataset {
+    reference_samples::<ClassicalRigidBody>(count, seed, |rng| loop {
         let p: Vec<f64> = (0..3).map(|_| rng.random_range(-1.5..1.5)).collect();
         if p.iter().map(|v| v * v).sum::<f64>() <= 2.25 {
             return p;

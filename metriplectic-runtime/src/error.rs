@@ -55,6 +55,24 @@ pub enum Error {
         /// What the certificate search found.
         reason: String,
     },
+    /// Coefficients of a classical system (`classical;`) that break one of
+    /// its constraints: the entropy is not a Casimir of Π, or the metric
+    /// is not degenerate along ∇H, so H would not be conserved or S would
+    /// not be produced.
+    #[error("{what}: {condition}, and constraint row {row} has residual {residual:e} (coefficients up to {scale:e})")]
+    NotClassical {
+        /// Which coefficients.
+        what: String,
+        /// The condition broken, in words.
+        condition: String,
+        /// The constraint row (of `Classical::entropy_constraints` or
+        /// `metric_constraints`) with the largest residual.
+        row: usize,
+        /// Its residual.
+        residual: f64,
+        /// The largest coefficient magnitude, the residual's scale.
+        scale: f64,
+    },
     /// The system declares no reference model.
     #[error("system `{system}` declares no reference model (add a `reference {{ … }}` section to its `metriplectic!` block)")]
     NoReference {

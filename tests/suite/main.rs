@@ -22,12 +22,14 @@
 //! | `region_certificates` | state-dependent metrics certified on a region |
 //! | `oversized_bases` | entropy bases larger than the truth needs |
 //! | `plot` | figures |
+//! | `classical` | the classical (GENERIC) form: constraints imposed, checked and recorded |
 //! | `what_the_data_determine` | identifiability reports, the gauge, degree selection, sparse refits, bootstrap |
 
 mod common;
 
 mod badly_scaled_data;
 mod checkpoint_resume;
+mod classical;
 mod data_io;
 mod degenerate_systems;
 mod derivatives;

@@ -296,30 +296,3 @@ fn a_metric_certified_on_the_region_only_is_accepted_there_only() {
         other => panic!("{other}"),
     }
 }
-
-metriplectic! {
-    /// The rigid body in the classical form (`classical;` needs a region).
-    struct ClassicalBody;
-    state (x, y, z);
-    poisson = [[0, -z, y], [z, 0, -x], [-y, x, 0]];
-    hamiltonian = 0.5 * (x^2 + y^2 + z^2);
-    entropy degree 2;
-    metric degree 2;
-    region ball(radius = 2);
-    classical;
-}
-
-/// The macro derives the classical constraints, but the searches do not
-/// impose them yet: identification refuses instead of returning a model
-/// that breaks them.
-#[test]
-fn a_classical_system_is_refused_by_identification_not_silently_generalized() {
-    let states = vec![0.1, 0.2, 0.3, -0.2, 0.1, 0.4];
-    let derivatives = vec![0.0; 6];
-    let data = Dataset::from_flat(3, states, derivatives).unwrap();
-    let error = identify::<ClassicalBody>(&data, &IdentifyConfig::default()).unwrap_err();
-    assert!(error.to_string().contains("classical"), "{error}");
-    let error =
-        metric_search::<ClassicalBody>(&data, &[0.0; 9], &SearchOptions::default()).unwrap_err();
-    assert!(error.to_string().contains("`classical;`"), "{error}");
-}

@@ -22,6 +22,7 @@ use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::search::{entropy_regression, metric_regression};
 use crate::identify::SearchOptions;
+use crate::model::classical::{self, Equalities};
 use crate::model::{polynomial, Model};
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
@@ -54,7 +55,8 @@ impl Default for IdentifiabilityOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum FlatKind {
     /// The structural scale symmetry (K, E) ↦ (cK, E/c), exact because
-    /// Π∇E = 0 on the data.
+    /// Π∇E = 0 on the data; in the classical form (K, S) ↦ (cK, S/c),
+    /// exact on any data since ẋ = Π∇H + K∇S there.
     ScaleSymmetry,
     /// A direction the data do not determine for no structural reason the
     /// report knows (too few or too similar samples, or a symmetry of this
@@ -94,7 +96,8 @@ pub struct Identifiability {
     /// relative to the largest.
     pub singular_values: Vec<f64>,
     /// Whether Π∇E = 0 on the data, so that (cK, E/c) fits as well as
-    /// (K, E) (relative size of Π∇E against (Π + K)∇E below the tolerance).
+    /// (K, E) (relative size of Π∇E against (Π + K)∇E below the tolerance);
+    /// for a classical system, whether (cK, S/c) does.
     pub scale_symmetry: bool,
     /// Whether the options' gauge removes the scale symmetry.
     pub gauge_fixed: bool,
@@ -119,10 +122,7 @@ impl std::fmt::Display for Identifiability {
                 self.unknowns
             )?;
             if self.scale_symmetry && self.gauge_fixed {
-                write!(
-                    f,
-                    "; the scale symmetry (K, E) -> (cK, E/c) is fixed by the gauge"
-                )?;
+                write!(f, "; the scale symmetry K -> cK is fixed by the gauge")?;
             }
             return Ok(());
         }
@@ -134,7 +134,7 @@ impl std::fmt::Display for Identifiability {
         for direction in &self.flat_directions {
             let name = match direction.kind {
                 FlatKind::ScaleSymmetry => {
-                    "scale symmetry (K, E) -> (cK, E/c), since Π∇E = 0 on the data"
+                    "scale symmetry K -> cK with E/c (Π∇E = 0 on the data) or S/c (classical form)"
                 }
                 FlatKind::Data => "not determined by these data",
             };
@@ -211,20 +211,34 @@ pub fn identifiability<S: MetriplecticSystem>(
         .collect();
 
     // Coordinates: the free coefficients, each divided by its column norm;
-    // with a gauge, only the directions that keep it.
-    let mut basis = DMatrix::<f64>::identity(columns, columns);
+    // only the directions that keep the gauge and, for a classical system,
+    // the constraints (in scaled coordinates y = D c a row g reads g / D).
+    let mut fixed: Vec<Vec<f64>> = Vec::new();
     let gauge_fixed = options.search.gauge.is_some();
     if let Some(gauge) = options.search.gauge {
         let (row, _) = gauge.row::<S>();
         let mut g = vec![0.0; columns];
         for (t, w) in row {
             if let Ok(c) = free_theta.binary_search(&t) {
-                // In scaled coordinates y = D c the gauge reads (g / D)·y.
                 g[c] = w / scale[c];
             }
         }
-        basis = orthogonal_complement(&g);
+        fixed.push(g);
     }
+    let classical = S::CLASSICAL.is_some();
+    for (rows, free, offset) in [
+        (classical::metric_rows::<S>(), &free_theta, 0),
+        (classical::entropy_rows::<S>(), &free_psi, free_theta.len()),
+    ] {
+        for row in Equalities::new(rows, free).dense_rows() {
+            let mut g = vec![0.0; columns];
+            for (j, w) in row.into_iter().enumerate() {
+                g[offset + j] = w / scale[offset + j];
+            }
+            fixed.push(g);
+        }
+    }
+    let basis = orthogonal_complement(&fixed, columns)?;
 
     // R of the QR factorisation of J D⁻¹ B, a chunk of rows at a time.
     let width = basis.ncols();
@@ -266,8 +280,15 @@ pub fn identifiability<S: MetriplecticSystem>(
     let relative: Vec<f64> = singular.iter().map(|s| s / top).collect();
     let rank = relative.iter().filter(|&&s| s > options.tolerance).count();
 
-    // The scale direction in scaled coordinates, if H is in the entropy basis.
-    let scale_direction = hamiltonian_coefficients::<S>(data).and_then(|h| {
+    // The scale direction in scaled coordinates: (θ, −(ψ + h)), E ↦ E/c,
+    // if H is in the entropy basis (h its coefficients); for a classical
+    // system (θ, −ψ), S ↦ S/c, since K∇H ≡ 0.
+    let hamiltonian = if classical {
+        Some(vec![0.0; psi.len()])
+    } else {
+        hamiltonian_coefficients::<S>(data)
+    };
+    let scale_direction = hamiltonian.and_then(|h| {
         let mut direction = vec![0.0; columns];
         for (c, &t) in free_theta.iter().enumerate() {
             direction[c] = theta[t] * scale[c];
@@ -438,29 +459,26 @@ fn data_states(data: &impl IdentificationData) -> Vec<&[f64]> {
     equations.states.chunks_exact(equations.dim).collect()
 }
 
-/// An orthonormal basis (columns) of the vectors orthogonal to `g`, by a
-/// Householder reflection that maps g to a coordinate axis.
-fn orthogonal_complement(g: &[f64]) -> DMatrix<f64> {
-    let k = g.len();
-    let size = norm(g);
-    if size == 0.0 {
-        return DMatrix::identity(k, k);
+/// An orthonormal basis (columns) of the vectors of length `k` orthogonal
+/// to every row of `rows`: the right singular vectors of Σ g gᵀ beyond its
+/// rank (the identity without rows).
+fn orthogonal_complement(rows: &[Vec<f64>], k: usize) -> Result<DMatrix<f64>> {
+    if rows.is_empty() {
+        return Ok(DMatrix::identity(k, k));
     }
-    // The axis i where g is largest, for a well-conditioned reflection.
-    let i = (0..k).fold(
-        0,
-        |best, j| if g[j].abs() > g[best].abs() { j } else { best },
-    );
-    let sign = if g[i] >= 0.0 { 1.0 } else { -1.0 };
-    let mut w: Vec<f64> = g.iter().map(|v| v / size).collect();
-    w[i] += sign;
-    let w_norm = norm(&w);
-    w.iter_mut().for_each(|v| *v /= w_norm);
-    let householder =
-        DMatrix::from_fn(k, k, |a, b| f64::from(u8::from(a == b)) - 2.0 * w[a] * w[b]);
-    // Column i of the reflection is ∓g/|g|; the others span its complement.
-    let kept: Vec<usize> = (0..k).filter(|&j| j != i).collect();
-    DMatrix::from_fn(k, k - 1, |a, b| householder[(a, kept[b])])
+    let mut gram = DMatrix::<f64>::zeros(k, k);
+    for g in rows {
+        let size = norm(g);
+        if size > 0.0 {
+            let unit = nalgebra::DVector::from_iterator(k, g.iter().map(|v| v / size));
+            gram += &unit * unit.transpose();
+        }
+    }
+    let (_, singular, v) = crate::solve::linalg::svd(&gram)
+        .ok_or_else(|| invalid("identifiability", "the singular value decomposition failed"))?;
+    let top = singular.first().copied().unwrap_or(0.0);
+    let rank = singular.iter().filter(|&&s| s > 1e-10 * top).count();
+    Ok(DMatrix::from_fn(k, k - rank, |a, b| v[(a, rank + b)]))
 }
 
 /// The vectors with their component along the unit vector `u` removed,
@@ -494,13 +512,29 @@ mod tests {
     #[test]
     fn the_complement_is_orthonormal_and_orthogonal_to_the_vector() {
         for g in [vec![1.0, 1.0, 1.0], vec![0.0, -2.0, 0.5, 3.0], vec![5.0]] {
-            let basis = orthogonal_complement(&g);
+            let basis = orthogonal_complement(std::slice::from_ref(&g), g.len()).unwrap();
             assert_eq!(basis.ncols(), g.len() - 1);
             let gram = basis.transpose() * &basis;
             assert!((gram - DMatrix::identity(g.len() - 1, g.len() - 1)).norm() < 1e-14);
             let along = nalgebra::DVector::from_vec(g.clone()).transpose() * &basis;
             assert!(along.norm() < 1e-14 * norm(&g));
         }
+    }
+
+    #[test]
+    fn the_complement_of_dependent_rows_keeps_their_rank() {
+        // Two equal rows and their sum span one direction of R³.
+        let rows = vec![
+            vec![1.0, 2.0, 0.0],
+            vec![1.0, 2.0, 0.0],
+            vec![2.0, 4.0, 0.0],
+        ];
+        let basis = orthogonal_complement(&rows, 3).unwrap();
+        assert_eq!(basis.ncols(), 2);
+        let gram = basis.transpose() * &basis;
+        assert!((gram - DMatrix::identity(2, 2)).norm() < 1e-14);
+        let along = nalgebra::DVector::from_vec(rows[0].clone()).transpose() * &basis;
+        assert!(along.norm() < 1e-14);
     }
 
     #[test]

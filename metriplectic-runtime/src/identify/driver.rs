@@ -20,6 +20,7 @@ use super::warnings::{data_warnings, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{Error, Result};
+use crate::model::classical::degenerate_metric;
 use crate::model::{identity_metric, Model};
 
 use crate::system::MetriplecticSystem;
@@ -147,12 +148,10 @@ where
     check_dataset::<S>(data)?;
     config.validate::<S>(data.equation_count())?;
     let split = Split::new(data, config)?;
-    let metric = config.initial_metric.clone().unwrap_or_else(|| {
-        identity_metric::<S>(match config.search.gauge {
-            Some(Gauge::MetricTrace(trace)) => trace / S::DIM as f64,
-            None => 1.0,
-        })
-    });
+    let metric = match &config.initial_metric {
+        Some(metric) => metric.clone(),
+        None => default_start_metric::<S>(config.search.gauge)?,
+    };
     let entropy = match &config.initial_entropy {
         Some(entropy) => entropy.clone(),
         None => fitted_start::<S>(&split.pool, config, &metric)?,
@@ -173,6 +172,25 @@ where
         since_improvement: 0,
     };
     run(data, config, &split, state, observer)
+}
+
+/// The default start metric: the identity, or for a classical system
+/// (where the identity breaks K∇H ≡ 0) the degenerate metric
+/// |∇H|² I − ∇H ∇Hᵀ with largest eigenvalue 1 on the region; scaled to the
+/// gauge if one is set.
+fn default_start_metric<S: MetriplecticSystem>(gauge: Option<Gauge>) -> Result<Vec<f64>> {
+    let mut metric = if S::CLASSICAL.is_some() {
+        degenerate_metric::<S>(1.0)?
+    } else {
+        identity_metric::<S>(1.0)
+    };
+    if let Some(gauge) = gauge {
+        let (value, wanted) = (gauge.value_at::<S>(&metric), gauge.row::<S>().1);
+        if value > 0.0 {
+            metric.iter_mut().for_each(|t| *t *= wanted / value);
+        }
+    }
+    Ok(metric)
 }
 
 /// Continues the run saved in the checkpoint at `path` (written by a run

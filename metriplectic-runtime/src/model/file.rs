@@ -39,11 +39,36 @@ struct ModelFile {
     /// Where dE/dt ≥ 0 is certified, in words, for readers of the file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     free_energy_certified: Option<String>,
+    /// Generalized or classical (GENERIC); files written before the
+    /// classical form existed are generalized.
+    #[serde(default)]
+    formalism: Formalism,
     entropy: Vec<f64>,
     metric: Vec<f64>,
     /// The Gram matrices proving the metric's bounds, when known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     certificate: Option<GramCertificate>,
+}
+
+/// Which form of the equations a model file's coefficients satisfy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum Formalism {
+    /// ẋ = (Π + K)(∇H + ∇S), E = H + S non-decreasing.
+    #[default]
+    Generalized,
+    /// Π∇S ≡ 0 and K∇H ≡ 0: H conserved, S non-decreasing.
+    Classical,
+}
+
+impl Formalism {
+    fn of<S: MetriplecticSystem>() -> Self {
+        if S::CLASSICAL.is_some() {
+            Self::Classical
+        } else {
+            Self::Generalized
+        }
+    }
 }
 
 /// A [`Region`] as stored in a model file.
@@ -105,6 +130,7 @@ impl ModelFile {
             region: S::REGION_CERTIFICATE.map(|c| c.region.into()),
             certificate_mode: S::REGION_CERTIFICATE.map(|c| c.mode),
             free_energy_certified: free_energy_certified::<S>(),
+            formalism: Formalism::of::<S>(),
             entropy: Vec::new(),
             metric: Vec::new(),
             certificate: None,
@@ -206,16 +232,19 @@ impl<S: MetriplecticSystem> Model<S> {
                 && file.entropy_degree == expected.entropy_degree
                 && file.metric_degree == expected.metric_degree
             {
-                found.push_str(
-                    if file.region != expected.region
-                        || file.certificate_mode != expected.certificate_mode
-                        || file.free_energy_certified != expected.free_energy_certified
-                    {
-                        " with a different certificate region or mode"
-                    } else {
-                        " with different monomial tables"
-                    },
-                );
+                found.push_str(if file.formalism != expected.formalism {
+                    match file.formalism {
+                        Formalism::Classical => " in the classical form",
+                        Formalism::Generalized => " in the generalized form",
+                    }
+                } else if file.region != expected.region
+                    || file.certificate_mode != expected.certificate_mode
+                    || file.free_energy_certified != expected.free_energy_certified
+                {
+                    " with a different certificate region or mode"
+                } else {
+                    " with different monomial tables"
+                });
             }
             return Err(Error::WrongSystem {
                 expected: expected.describe(),

@@ -8,6 +8,7 @@ use std::fmt;
 use std::marker::PhantomData;
 
 mod certificate;
+pub(crate) mod classical;
 mod display;
 mod file;
 mod gram;
@@ -278,7 +279,8 @@ pub(crate) fn quadratic_form(a: &[f64], v: &[f64]) -> f64 {
 /// Length, finiteness and magnitude of entropy coefficients.
 pub(crate) fn check_entropy<S: MetriplecticSystem>(what: &str, entropy: &[f64]) -> Result<()> {
     check_len(what, entropy, S::entropy_coefficient_count())?;
-    check_magnitude::<S>(what, entropy)
+    check_magnitude::<S>(what, entropy)?;
+    classical::check_entropy::<S>(what, entropy)
 }
 
 /// Length, finiteness and magnitude of metric coefficients, and K(x) ⪰ 0.
@@ -288,6 +290,7 @@ pub(crate) fn check_metric_coefficients<S: MetriplecticSystem>(
 ) -> Result<()> {
     check_len(what, metric, S::metric_coefficient_count())?;
     check_magnitude::<S>(what, metric)?;
+    classical::check_metric::<S>(what, metric)?;
     check_metric::<S>(what, metric)
 }
 

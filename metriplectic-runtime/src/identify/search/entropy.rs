@@ -6,6 +6,7 @@ use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{check_finite, check_len, Result};
 use crate::identify::cost::model_cost;
+use crate::model::classical::{self, Equalities};
 use crate::model::Model;
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
@@ -35,6 +36,9 @@ pub struct EntropySearch {
 /// min Σᵢ ‖rᵢ(ψ)‖₁   s.t.  −η ≤ ψ ≤ η,
 /// ```
 ///
+/// and, for a classical system, C_S ψ = 0 (S a Casimir of Π; the
+/// solution is projected onto these rows, so they hold to rounding).
+///
 /// assembled from the system's per-sample
 /// [`entropy_block`](MetriplecticSystem::entropy_block).
 pub fn entropy_search<S: MetriplecticSystem>(
@@ -46,7 +50,6 @@ pub fn entropy_search<S: MetriplecticSystem>(
     check_len("metric coefficients", metric, S::metric_coefficient_count())?;
     check_finite("metric coefficients", metric)?;
     options.validate_for::<S>()?;
-    super::check_generalized::<S>()?;
 
     let start = std::time::Instant::now();
     // Coefficients outside the support are columns left out.
@@ -64,6 +67,15 @@ pub fn entropy_search<S: MetriplecticSystem>(
         entries.push((p + k, k, -1.0));
     }
     problem.constrain(Cone::Nonnegative(2 * p), entries, vec![options.eta; 2 * p])?;
+    // The classical form: S a Casimir of Π.
+    let casimir = Equalities::new(classical::entropy_rows::<S>(), &free);
+    if !casimir.is_empty() {
+        problem.constrain(
+            Cone::Zero(casimir.len()),
+            casimir.entries(0),
+            vec![0.0; casimir.len()],
+        )?;
+    }
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;
 
@@ -71,6 +83,7 @@ pub fn entropy_search<S: MetriplecticSystem>(
     for (&k, &v) in free.iter().zip(solution.coefficients()) {
         coefficients[k] = v.clamp(-options.eta, options.eta);
     }
+    casimir.project_coefficients(&mut coefficients);
     let cost = Model::<S>::new(coefficients.clone(), metric.to_vec())
         .ok()
         .and_then(|model| model_cost(&model, data).ok());

@@ -7,6 +7,7 @@ use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::cost::{model_cost, Cost};
+use crate::model::classical::{self, Equalities};
 use crate::model::{theta_from_gram, GramCertificate, Model};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
@@ -93,7 +94,6 @@ pub fn joint_step<S: MetriplecticSystem>(
 ) -> Result<JointStep> {
     check_dataset::<S>(data)?;
     options.validate_for::<S>()?;
-    super::check_generalized::<S>()?;
     if !(radius.is_finite() && radius > 0.0) {
         return Err(invalid(
             "trust radius",
@@ -119,7 +119,16 @@ pub fn joint_step<S: MetriplecticSystem>(
     let penalised = regression.stacked(&step_penalty(&regression, theta));
     let mut problem = L1Problem::new(penalised, SosConstraints::variables::<S>(&layout));
     let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, t_len + p)?;
-    add_metric_restrictions::<S>(&mut problem, options, 0)?;
+    let degenerate = add_metric_restrictions::<S>(&mut problem, options, 0)?;
+    // The classical form: C_S (ψ + d) = C_S d = 0, the current ψ meeting it.
+    let casimir = Equalities::new(classical::entropy_rows::<S>(), &free);
+    if !casimir.is_empty() {
+        problem.constrain(
+            Cone::Zero(casimir.len()),
+            casimir.entries(t_len),
+            vec![0.0; casimir.len()],
+        )?;
+    }
     // The trust region in units of each coefficient's effect on the data.
     let widths = trust_widths(&regression, theta, &psi);
     let mut entries = Vec::with_capacity(2 * (t_len + p));
@@ -151,11 +160,13 @@ pub fn joint_step<S: MetriplecticSystem>(
         .all(|v| v.is_finite())
         .then(|| Cost::from_sum(regression.l1_residual(step), regression.len()));
     let certificate = sos.certificate(&solution);
-    let metric = theta_from_gram::<S>(&layout, &certificate.lower);
+    let mut metric = theta_from_gram::<S>(&layout, &certificate.lower);
+    degenerate.project_coefficients(&mut metric);
     let mut entropy = all_psi.to_vec();
     for ((&k, v), d) in free.iter().zip(&psi).zip(&step[t_len..]) {
         entropy[k] = (v + d).clamp(-options.eta, options.eta);
     }
+    casimir.project_coefficients(&mut entropy);
     let cost = Model::<S>::new(entropy.clone(), metric.clone())
         .ok()
         .and_then(|candidate| model_cost(&candidate, data).ok());

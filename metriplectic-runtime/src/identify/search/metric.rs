@@ -43,7 +43,9 @@ pub struct MetricSearch {
 /// The returned θ is recomputed from the solver's lower Gram matrices
 /// (taken from the cone slacks, which lie in the PSD cones), so the lower
 /// certificate holds on the metric basis exactly and K(x) ⪰ 0 up to
-/// rounding whatever the solver's feasibility tolerance.
+/// rounding whatever the solver's feasibility tolerance. For a classical
+/// system the rows K(x)∇H(x) ≡ 0 are imposed too, and θ is projected onto
+/// them (a change of the size of the solver's equality residual).
 pub fn metric_search<S: MetriplecticSystem>(
     data: &impl IdentificationData,
     entropy: &[f64],
@@ -57,7 +59,6 @@ pub fn metric_search<S: MetriplecticSystem>(
     )?;
     check_finite("entropy coefficients", entropy)?;
     options.validate_for::<S>()?;
-    super::check_generalized::<S>()?;
     let layout = layout::<S>(options.sos)?;
 
     let start = std::time::Instant::now();
@@ -67,12 +68,13 @@ pub fn metric_search<S: MetriplecticSystem>(
         SosConstraints::variables::<S>(&layout),
     );
     let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, theta_len)?;
-    add_metric_restrictions::<S>(&mut problem, options, 0)?;
+    let degenerate = add_metric_restrictions::<S>(&mut problem, options, 0)?;
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;
 
     let certificate = sos.certificate(&solution);
-    let coefficients = theta_from_gram::<S>(&layout, &certificate.lower);
+    let mut coefficients = theta_from_gram::<S>(&layout, &certificate.lower);
+    degenerate.project_coefficients(&mut coefficients);
     let cost = Model::<S>::new(entropy.to_vec(), coefficients.clone())
         .ok()
         .and_then(|model| model_cost(&model, data).ok());

@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
 use crate::identify::search::SearchOptions;
+use crate::model::classical::{self, Equalities};
 use crate::model::{GramCertificate, GramMatrix, Layout};
 use crate::solve::svec::{svec_index, svec_len, unsvec, SQRT_2};
 use crate::solve::{Cone, ConstraintId, L1Problem, L1Solution};
@@ -193,15 +194,18 @@ pub(crate) fn certificate_free_metric<S: MetriplecticSystem>(basis: SosBasis) ->
         .collect()
 }
 
-/// Adds the support's zero metric coefficients and the gauge as equality
-/// rows on θ (in the variables from `theta_column`). Coefficients the
-/// certificate already forces to zero get no row: a repeated equality
-/// would make the constraint matrix rank-deficient.
+/// Adds the support's zero metric coefficients, the gauge and, for a
+/// classical system, K∇H ≡ 0 as equality rows on θ (in the variables from
+/// `theta_column`), and returns the classical rows for projecting the
+/// solution onto them. Coefficients the certificate already forces to
+/// zero get no row, and the classical rows are restricted to the free
+/// coefficients and made independent: a repeated equality would make the
+/// constraint matrix rank-deficient.
 pub(crate) fn add_metric_restrictions<S: MetriplecticSystem>(
     problem: &mut L1Problem,
     options: &SearchOptions,
     theta_column: usize,
-) -> Result<()> {
+) -> Result<Equalities> {
     let free = certificate_free_metric::<S>(options.sos);
     let zeros: Vec<usize> = options
         .support
@@ -222,8 +226,20 @@ pub(crate) fn add_metric_restrictions<S: MetriplecticSystem>(
         entries.extend(row.into_iter().map(|(t, w)| (at, theta_column + t, w)));
         rhs.push(value);
     }
+    let degenerate = Equalities::new(
+        classical::metric_rows::<S>(),
+        &options.support.free_metric::<S>(options.sos),
+    );
+    let at = rhs.len();
+    entries.extend(
+        degenerate
+            .entries(0)
+            .into_iter()
+            .map(|(r, j, v)| (at + r, theta_column + degenerate.coefficient(j), v)),
+    );
+    rhs.resize(at + degenerate.len(), 0.0);
     if !rhs.is_empty() {
         problem.constrain(Cone::Zero(rhs.len()), entries, rhs)?;
     }
-    Ok(())
+    Ok(degenerate)
 }

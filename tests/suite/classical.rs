@@ -1,0 +1,138 @@
+//! The classical (GENERIC) form end to end: a cold start identifies the
+//! relaxing rigid body under its constraints (S a Casimir, K∇H ≡ 0) so
+//! that H is conserved and S produced by the identified field; models that
+//! break the constraints are refused, and model files record the form.
+
+use metriplectic::systems::{classical_rigid_body_data, ClassicalRigidBody};
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{
+    identifiability, FlatKind, Gauge, IdentifiabilityOptions, IdentifyConfig, LinearForm,
+    SearchOptions,
+};
+
+/// The largest residual of the classical rows (each scaled to max |c| = 1)
+/// at the model's coefficients: (entropy rows, metric rows).
+fn residuals(model: &Model<ClassicalRigidBody>) -> (f64, f64) {
+    let classical = ClassicalRigidBody::CLASSICAL.unwrap();
+    let worst = |rows: &[LinearForm], values: &[f64]| {
+        rows.iter()
+            .map(|row| {
+                row.iter()
+                    .map(|&(i, c)| c * values[i as usize])
+                    .sum::<f64>()
+                    .abs()
+            })
+            .fold(0.0, f64::max)
+    };
+    (
+        worst(classical.entropy_constraints, model.entropy_coefficients()),
+        worst(classical.metric_constraints, model.metric_coefficients()),
+    )
+}
+
+#[test]
+fn a_cold_start_identifies_the_classical_body_under_its_constraints() {
+    let train = classical_rigid_body_data(400, 1);
+    let held_out = classical_rigid_body_data(200, 2);
+    let fit = identify::<ClassicalRigidBody>(&train, &IdentifyConfig::default()).unwrap();
+    let truth = Model::<ClassicalRigidBody>::reference().unwrap();
+    let score = fit.model.compare(&truth, &held_out).unwrap();
+    assert!(score.relative_error <= 1e-6, "{score:?}");
+    let (entropy, metric) = residuals(&fit.model);
+    assert!(
+        entropy <= 1e-12 && metric <= 1e-12,
+        "{entropy:e} {metric:e}"
+    );
+
+    // The identified field conserves H and produces S at every held-out state.
+    let n = 3;
+    let (mut f, mut grad_h) = (vec![0.0; n], vec![0.0; n]);
+    for x in held_out.states().chunks_exact(n) {
+        fit.model.vector_field(x, &mut f).unwrap();
+        ClassicalRigidBody::hamiltonian_gradient(x, &mut grad_h);
+        let mut grad_s = vec![0.0; n];
+        ClassicalRigidBody::entropy_gradient(x, fit.model.entropy_coefficients(), &mut grad_s);
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(u, v)| u * v).sum::<f64>();
+        let size = dot(&f, &f).sqrt() * dot(&grad_h, &grad_h).sqrt();
+        assert!(
+            dot(&grad_h, &f).abs() <= 1e-12 * size.max(1e-300),
+            "dH/dt at {x:?}"
+        );
+        assert!(
+            dot(&grad_s, &f) >= -1e-12 * size.max(1e-300),
+            "dS/dt at {x:?}"
+        );
+    }
+
+    // The data fix everything but the scale (K, S) ↦ (cK, S/c).
+    let report = identifiability(&fit.model, &train, &IdentifiabilityOptions::default()).unwrap();
+    // Two Casimirs (|p|², |p|⁴) and the six metrics [v]ₓᵀ A [v]ₓ.
+    assert_eq!(report.unknowns, 8, "{report}");
+    assert_eq!(report.flat_directions.len(), 1, "{report}");
+    assert_eq!(
+        report.flat_directions[0].kind,
+        FlatKind::ScaleSymmetry,
+        "{report}"
+    );
+}
+
+#[test]
+fn models_that_break_the_classical_constraints_are_refused() {
+    let truth = Model::<ClassicalRigidBody>::reference().unwrap();
+    let psi = truth.entropy_coefficients().to_vec();
+    let theta = truth.metric_coefficients().to_vec();
+
+    // The identity metric dissipates H.
+    let mut identity = vec![0.0; theta.len()];
+    let m = ClassicalRigidBody::METRIC_EXPONENTS.len();
+    for pair in [0, 3, 5] {
+        identity[pair * m] = 1.0;
+    }
+    let error = Model::<ClassicalRigidBody>::new(psi.clone(), identity.clone()).unwrap_err();
+    assert!(matches!(error, Error::NotClassical { .. }), "{error}");
+    assert!(error.to_string().contains("K(x)∇H(x) ≡ 0"), "{error}");
+
+    // H itself (coefficients 0.5, 0.25, 0.125 on px², py², pz²) is no Casimir.
+    let mut not_casimir = psi.clone();
+    not_casimir[3] += 0.1;
+    let error = Model::<ClassicalRigidBody>::new(not_casimir, theta.clone()).unwrap_err();
+    assert!(error.to_string().contains("Casimir"), "{error}");
+
+    // A run refuses such a start instead of identifying from it.
+    let data = classical_rigid_body_data(50, 3);
+    let config = IdentifyConfig {
+        initial_metric: Some(identity),
+        ..IdentifyConfig::default()
+    };
+    let error = identify::<ClassicalRigidBody>(&data, &config).unwrap_err();
+    assert!(matches!(error, Error::NotClassical { .. }), "{error}");
+
+    // tr K(0) is zero for every metric with K∇H ≡ 0 here: no gauge on it.
+    let config = IdentifyConfig {
+        search: SearchOptions {
+            gauge: Some(Gauge::MetricTrace(3.0)),
+            ..SearchOptions::default()
+        },
+        ..IdentifyConfig::default()
+    };
+    let error = identify::<ClassicalRigidBody>(&data, &config).unwrap_err();
+    assert!(error.to_string().contains("classical"), "{error}");
+}
+
+#[test]
+fn model_files_record_the_formalism() {
+    let truth = Model::<ClassicalRigidBody>::reference().unwrap();
+    let json = truth.to_json().unwrap();
+    assert!(json.contains("\"formalism\": \"classical\""), "{json}");
+    assert_eq!(
+        Model::<ClassicalRigidBody>::from_json(&json).unwrap(),
+        truth
+    );
+    let edited = json.replace(
+        "\"formalism\": \"classical\"",
+        "\"formalism\": \"generalized\"",
+    );
+    let error = Model::<ClassicalRigidBody>::from_json(&edited).unwrap_err();
+    assert!(matches!(error, Error::WrongSystem { .. }), "{error}");
+    assert!(error.to_string().contains("generalized form"), "{error}");
+}
