@@ -64,11 +64,20 @@ impl<S: MetriplecticSystem> fmt::Display for Model<S> {
             })
             .collect();
         writeln!(f, "K({arguments}) = [{}]", rows.join(", "))?;
-        write!(
-            f,
-            "d({arguments})/dt = (Π + K) ∇(H + S), with Π and H of system `{}`",
-            S::NAME
-        )
+        if S::CLASSICAL.is_some() {
+            write!(
+                f,
+                "d({arguments})/dt = Π ∇H + K ∇S (classical form: Π∇S ≡ 0, K∇H ≡ 0), with Π \
+                 and H of system `{}`",
+                S::NAME
+            )
+        } else {
+            write!(
+                f,
+                "d({arguments})/dt = (Π + K) ∇(H + S), with Π and H of system `{}`",
+                S::NAME
+            )
+        }
     }
 }
 
