@@ -13,7 +13,7 @@ pub use synthesize::{
     synthesize, InitialStates, Noise, Outliers, SampleTimes, SynthesisOptions, SyntheticData,
 };
 
-use energy::check_energy;
+use energy::{check_energy, integrator_tolerances};
 
 use crate::data::Trajectory;
 use crate::error::{invalid, Result};
@@ -199,8 +199,7 @@ pub fn simulate<S: MetriplecticSystem>(
                 .sum::<f64>();
         rounding.push(terms * f64::EPSILON * magnitude);
     }
-    let energy = check_energy(
-        &free_energy,
+    let tolerances = integrator_tolerances(
         &gradient_norms,
         &rounding,
         &solution.states,
@@ -208,6 +207,7 @@ pub fn simulate<S: MetriplecticSystem>(
         &options.integrator,
         factor,
     );
+    let energy = check_energy(&free_energy, &tolerances);
     let names = S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect();
     let trajectory = Trajectory::new(names, solution.times, solution.states, Some(derivatives))?;
     Ok(Simulation {
