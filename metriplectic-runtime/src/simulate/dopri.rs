@@ -80,11 +80,14 @@ pub enum OutputTimes {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct IntegrationStats {
-    /// Vector field evaluations.
+    /// Vector field evaluations; for the discrete gradient
+    /// ([`Method::DiscreteGradient`](crate::Method::DiscreteGradient)),
+    /// evaluations of its step map (each about one vector field and one
+    /// free energy), the Jacobians' included.
     pub evaluations: u32,
-    /// Accepted steps.
+    /// Accepted steps (every step of the discrete gradient).
     pub accepted_steps: u32,
-    /// Rejected steps.
+    /// Rejected steps (none for the discrete gradient, whose steps are fixed).
     pub rejected_steps: u32,
 }
 
