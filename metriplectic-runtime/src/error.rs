@@ -441,6 +441,23 @@ pub enum SimulationError {
         /// Time reached.
         t: f64,
     },
+    /// The implicit equation of a discrete-gradient step
+    /// ([`Method::DiscreteGradient`](crate::Method::DiscreteGradient)) was
+    /// not solved to rounding: its iteration diverged, or stalled above a
+    /// few ulps of the state.
+    #[error("discrete-gradient step {step} from t = {t} with step size {h} did not converge: the last update of its implicit equation was {update:e} after {iterations} iterations, above rounding (take a smaller step)")]
+    StepNotConverged {
+        /// Index of the step (0 for the first).
+        step: usize,
+        /// Time at the start of the step.
+        t: f64,
+        /// Its step size.
+        h: f64,
+        /// Norm of the last update of the iteration (may be non-finite).
+        update: f64,
+        /// Iterations done.
+        iterations: u32,
+    },
     /// The vector field or the state became NaN or infinite.
     #[error("integration failed at t = {t}: non-finite {what} in component {index}")]
     NonFinite {

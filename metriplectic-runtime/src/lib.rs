@@ -56,7 +56,7 @@
 //! | analysis | [`identifiability`] (flat directions, the scale symmetry), [`Gauge`], [`Support`] (degree caps), [`select_degrees`], [`sparsify`], [`bootstrap`] |
 //! | searches | [`entropy_search`], [`metric_search`], [`joint_step`] with [`SearchOptions`] and [`SearchReport`] |
 //! | solve | [`L1Problem`], [`Regression`], [`Cone`], [`solve_l1`], [`L1Solution`], [`SolverSettings`], [`SolverBackend`], [`SolveStatus`] |
-//! | simulate | [`simulate`], [`integrate`], [`synthesize`], [`free_energy_diagnostics`] and their options |
+//! | simulate | [`simulate`] with DOPRI5 or the structure-preserving discrete gradient ([`Method`]), [`integrate`], [`synthesize`], [`free_energy_diagnostics`] and their options |
 //! | plot (feature `plot`) | `phase_portrait_2d`, `trajectories_3d`, `loss_curves`, `free_energy_curves`, `trajectory_overlay`, `log_axis_ticks`, `integer_axis_ticks` |
 //! | errors | [`Error`], [`Result`] and the per-layer error enums |
 //!
@@ -129,8 +129,8 @@ pub use plot::{
 };
 pub use simulate::{
     free_energy_diagnostics, integrate, simulate, simulate_many, synthesize, EnergyCheck,
-    FreeEnergyReport, InitialStates, Integration, IntegrationStats, IntegratorOptions, Noise,
-    Outliers, OutputTimes, SampleTimes, Simulation, SimulationOptions, SynthesisOptions,
+    FreeEnergyReport, InitialStates, Integration, IntegrationStats, IntegratorOptions, Method,
+    Noise, Outliers, OutputTimes, SampleTimes, Simulation, SimulationOptions, SynthesisOptions,
     SyntheticData,
 };
 #[cfg(feature = "clarabel")]

@@ -80,11 +80,14 @@ pub enum OutputTimes {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct IntegrationStats {
-    /// Vector field evaluations.
+    /// Vector field evaluations; for the discrete gradient
+    /// ([`Method::DiscreteGradient`](crate::Method::DiscreteGradient)),
+    /// evaluations of its step map (each about one vector field and one
+    /// free energy), the Jacobians' included.
     pub evaluations: u32,
-    /// Accepted steps.
+    /// Accepted steps (every step of the discrete gradient).
     pub accepted_steps: u32,
-    /// Rejected steps.
+    /// Rejected steps (none for the discrete gradient, whose steps are fixed).
     pub rejected_steps: u32,
 }
 
@@ -209,10 +212,7 @@ where
             }
         }
         OutputTimes::Interval(dt) => {
-            // k·Δ rather than repeated addition, so no drift over long runs.
-            let count = (span / dt * (1.0 + 1e-12)).floor() as usize;
-            for k in 0..=count {
-                let tau = (k as f64 * dt).min(span);
+            for tau in interval_offsets(span, *dt) {
                 push_dense(&dense, tau, t0, x0, &mut times, &mut states)?;
             }
         }
@@ -227,6 +227,14 @@ where
         states,
         stats,
     })
+}
+
+/// The offsets τ = t − t0 of [`OutputTimes::Interval`]`(dt)` over [0, span]:
+/// 0, Δ, 2Δ, … as k·Δ rather than repeated addition, so no drift over long
+/// runs, and an offset within rounding of `span` is `span`.
+pub(super) fn interval_offsets(span: f64, dt: f64) -> impl Iterator<Item = f64> {
+    let count = (span / dt * (1.0 + 1e-12)).floor() as usize;
+    (0..=count).map(move |k| (k as f64 * dt).min(span))
 }
 
 /// The ODE as `ode_solvers` sees it, in shifted time τ = t − t0.
@@ -360,6 +368,13 @@ fn validate(
     options: &IntegratorOptions,
     output: &OutputTimes,
 ) -> Result<()> {
+    validate_start(x0, t0, t_end)?;
+    validate_tolerances(options)?;
+    validate_output(t0, t_end, output)
+}
+
+/// The initial state and the interval: what every integrator needs.
+pub(super) fn validate_start(x0: &[f64], t0: f64, t_end: f64) -> Result<()> {
     if x0.is_empty() {
         return Err(invalid("initial state", "it is empty".to_owned()));
     }
@@ -370,6 +385,11 @@ fn validate(
             format!("[{t0}, {t_end}]: need finite t0 < t_end (only forward integration)"),
         ));
     }
+    Ok(())
+}
+
+/// DOPRI5's error control and budget.
+fn validate_tolerances(options: &IntegratorOptions) -> Result<()> {
     for (what, value) in [("rtol", options.rtol), ("atol", options.atol)] {
         if !(value.is_finite() && value > 0.0) {
             return Err(invalid(what, format!("{value}: must be finite and > 0")));
@@ -389,6 +409,11 @@ fn validate(
             return Err(invalid("max_step", format!("{h}: must be finite and > 0")));
         }
     }
+    Ok(())
+}
+
+/// The output times within [t0, t_end] (`t0 < t_end` already checked).
+pub(super) fn validate_output(t0: f64, t_end: f64, output: &OutputTimes) -> Result<()> {
     match output {
         OutputTimes::Steps => {}
         OutputTimes::Interval(dt) => {

@@ -132,17 +132,32 @@ impl EnergyCheck {
     }
 }
 
-/// Counts decreases of E beyond the integrator-tied tolerance τₖ.
-pub(super) fn check_energy(
-    energy: &[f64],
+/// The tolerances τₖ of DOPRI5's outputs (see [`simulate`](crate::simulate)):
+/// the change of E caused by a state error within the tolerances, plus the
+/// rounding of E at both ends.
+pub(super) fn integrator_tolerances(
     gradient_norms: &[f64],
     rounding: &[f64],
     states: &[f64],
     n: usize,
     options: &IntegratorOptions,
     factor: f64,
-) -> EnergyCheck {
+) -> Vec<f64> {
     let state_norms: Vec<f64> = states.chunks_exact(n).map(norm).collect();
+    (0..state_norms.len().saturating_sub(1))
+        .map(|k| {
+            let error_scale = options.atol * (n as f64).sqrt()
+                + options.rtol * state_norms[k].max(state_norms[k + 1]);
+            factor * error_scale * gradient_norms[k].max(gradient_norms[k + 1])
+                + rounding[k]
+                + rounding[k + 1]
+        })
+        .collect()
+}
+
+/// Counts decreases of E between consecutive outputs beyond their
+/// tolerances τₖ (`tolerances[k]` for outputs k and k + 1).
+pub(super) fn check_energy(energy: &[f64], tolerances: &[f64]) -> EnergyCheck {
     let mut check = EnergyCheck {
         steps: energy.len().saturating_sub(1),
         violations: 0,
@@ -150,16 +165,11 @@ pub(super) fn check_energy(
         largest_decrease_ratio: 0.0,
         worst_step: None,
     };
-    for k in 0..check.steps {
+    for (k, &tolerance) in tolerances.iter().enumerate().take(check.steps) {
         let decrease = energy[k] - energy[k + 1];
         if decrease <= 0.0 {
             continue;
         }
-        let error_scale = options.atol * (n as f64).sqrt()
-            + options.rtol * state_norms[k].max(state_norms[k + 1]);
-        let tolerance = factor * error_scale * gradient_norms[k].max(gradient_norms[k + 1])
-            + rounding[k]
-            + rounding[k + 1];
         let ratio = if tolerance > 0.0 {
             decrease / tolerance
         } else {
@@ -194,21 +204,16 @@ mod tests {
         let energy = [0.0, -1e-3, -2e-3, -3e-3];
         let states = [1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0];
         let options = IntegratorOptions::default();
-        let check = check_energy(&energy, &[1.0; 4], &[0.0; 4], &states, 2, &options, 10.0);
+        let tolerances = integrator_tolerances(&[1.0; 4], &[0.0; 4], &states, 2, &options, 10.0);
+        let check = check_energy(&energy, &tolerances);
         assert_eq!((check.steps, check.violations), (3, 3));
         assert!(!check.is_non_decreasing());
         assert!((check.largest_decrease - 1e-3).abs() < 1e-15);
         // Decreases within the tolerance are not violations.
         let energy = [0.0, -1e-12, -2e-12];
-        let check = check_energy(
-            &energy,
-            &[1.0; 3],
-            &[0.0; 3],
-            &states[..6],
-            2,
-            &options,
-            10.0,
-        );
+        let tolerances =
+            integrator_tolerances(&[1.0; 3], &[0.0; 3], &states[..6], 2, &options, 10.0);
+        let check = check_energy(&energy, &tolerances);
         assert_eq!(check.violations, 0);
         assert!(check.is_non_decreasing());
     }

@@ -1,8 +1,11 @@
-//! Simulation: integrate ẋ = (Π + K)(∇H + ∇S) for a [`Model`] (`dopri`),
-//! check that the free energy never decreases along the way (`energy`),
-//! and synthesise identification data from a known model (`synthesize`).
+//! Simulation: integrate ẋ = (Π + K)(∇H + ∇S) for a [`Model`] with DOPRI5
+//! (`dopri`) or a structure-preserving discrete gradient
+//! (`discrete_gradient`), check that the free energy never decreases along
+//! the way (`energy`), and synthesise identification data from a known
+//! model (`synthesize`).
 //!
 
+mod discrete_gradient;
 mod dopri;
 mod energy;
 mod synthesize;
@@ -13,7 +16,7 @@ pub use synthesize::{
     synthesize, InitialStates, Noise, Outliers, SampleTimes, SynthesisOptions, SyntheticData,
 };
 
-use energy::check_energy;
+use energy::{check_energy, integrator_tolerances};
 
 use crate::data::Trajectory;
 use crate::error::{invalid, Result};
@@ -23,30 +26,92 @@ use crate::system::MetriplecticSystem;
 /// Options of [`simulate`].
 ///
 /// ```
-/// use metriplectic_runtime::{OutputTimes, SimulationOptions};
+/// use metriplectic_runtime::{Method, OutputTimes, SimulationOptions};
 ///
 /// let options = SimulationOptions { output: OutputTimes::Interval(0.05), ..Default::default() };
 /// assert_eq!(options.energy_tolerance_factor, 10.0);
+/// assert_eq!(options.method, Method::Dopri5);
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulationOptions {
-    /// Error control of the integrator.
+    /// The integration method; [`Method::Dopri5`] by default.
+    pub method: Method,
+    /// Error control of DOPRI5, and the step budget of both methods
+    /// ([`IntegratorOptions::max_steps`]); the default
+    /// [`IntegratorOptions::default`].
     pub integrator: IntegratorOptions,
-    /// Output times.
+    /// Output times; [`OutputTimes::Steps`] by default.
     pub output: OutputTimes,
     /// Safety factor of the free-energy monotonicity tolerance (see the
-    /// [`simulate`] documentation); must be ≥ 0.
+    /// [`simulate`] documentation); must be ≥ 0; 10 by default.
     pub energy_tolerance_factor: f64,
 }
 
 impl Default for SimulationOptions {
     fn default() -> Self {
         Self {
+            method: Method::default(),
             integrator: IntegratorOptions::default(),
             output: OutputTimes::default(),
             energy_tolerance_factor: 10.0,
         }
     }
+}
+
+/// How [`simulate`] integrates.
+///
+/// ```
+/// # use metriplectic_runtime::prelude::*;
+/// # use metriplectic_runtime::{simulate, Method, SimulationOptions};
+/// # metriplectic! {
+/// #     pub struct Decay;
+/// #     state (x, y);
+/// #     poisson = [[0, 1], [-1, 0]];
+/// #     hamiltonian = 0.5 * x^2 + 0.5 * y^2;
+/// #     entropy degree 2;
+/// #     metric degree 0;
+/// #     reference { entropy = -(x^2 + y^2); metric = [[1, 0], [0, 1]]; }
+/// # }
+/// let model = Model::<Decay>::reference()?;
+/// // A step far beyond what an explicit method could take on this flow:
+/// // the free energy still never decreases.
+/// let options = SimulationOptions {
+///     method: Method::DiscreteGradient { step: 1.0 },
+///     ..SimulationOptions::default()
+/// };
+/// let sim = simulate(&model, &[1.0, 0.0], 0.0, 20.0, &options)?;
+/// assert_eq!(sim.trajectory.len(), 21);
+/// assert!(sim.free_energy.windows(2).all(|e| e[1] >= e[0]));
+/// # Ok::<(), metriplectic_runtime::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[non_exhaustive]
+pub enum Method {
+    /// Dormand–Prince 5(4) with adaptive steps and dense output (the
+    /// default): fifth order, error per step controlled by
+    /// [`SimulationOptions::integrator`]; the free energy is non-decreasing
+    /// only up to that error.
+    #[default]
+    Dopri5,
+    /// Gonzalez's midpoint discrete gradient with a fixed step: implicit,
+    /// second order, and structure-preserving for every step size. For a
+    /// generalized system E(x′) − E(x) = h ∇̄Eᵀ K ∇̄E ≥ 0 at every step; for
+    /// a system declared `classical;` H is conserved and S never decreases
+    /// (projected operators). Exact up to rounding; the module
+    /// documentation of `simulate/discrete_gradient.rs` and
+    /// `docs/method.md` §9 give the details.
+    ///
+    /// Each interval between outputs is divided into the fewest equal steps
+    /// no longer than `step`, so outputs fall on step ends; with
+    /// [`OutputTimes::Steps`] every step is an output. The run stops at the
+    /// last output time. [`IntegratorOptions::max_steps`] bounds the number
+    /// of steps (checked before integrating); DOPRI5's tolerances are not
+    /// used.
+    DiscreteGradient {
+        /// The largest step size h (finite, > 0). No default: accuracy is
+        /// O(h²), so choose it for the accuracy the run needs.
+        step: f64,
+    },
 }
 
 /// A simulated trajectory with its free energy.
@@ -131,7 +196,8 @@ pub fn simulate_many<S: MetriplecticSystem>(
         .collect())
 }
 
-/// Simulates `model` from `x0` over [t0, t_end] (t_end > t0).
+/// Simulates `model` from `x0` over [t0, t_end] (t_end > t0) with
+/// [`SimulationOptions::method`].
 ///
 /// The trajectory carries the model's exact vector field at every output
 /// state as its derivatives, and its state names are `S::STATE_NAMES`.
@@ -141,7 +207,9 @@ pub fn simulate_many<S: MetriplecticSystem>(
 /// Along every simulated trajectory of a model with K ⪰ 0 the free energy
 /// E = H + S must not decrease (dE/dt = ∇Eᵀ K ∇E ≥ 0). [`simulate`] reports
 /// E at each output and an [`EnergyCheck`]: between consecutive outputs k and
-/// k+1, a decrease counts as a violation only if it exceeds
+/// k+1, a decrease counts as a violation only if it exceeds a tolerance τₖ.
+///
+/// With [`Method::Dopri5`],
 ///
 /// ```text
 /// τₖ = factor · (atol·√n + rtol·max(‖xₖ‖, ‖xₖ₊₁‖)) · max(‖∇E(xₖ)‖, ‖∇E(xₖ₊₁)‖),
@@ -153,6 +221,22 @@ pub fn simulate_many<S: MetriplecticSystem>(
 /// floating point at both ends, (p + r)·ε·(|H(x)| + Σₖ|ψₖ φₖ(x)|) with p
 /// entropy terms of degree ≤ r (near the zero set ∇E → 0 and only rounding
 /// is left). `factor` is [`SimulationOptions::energy_tolerance_factor`].
+///
+/// With [`Method::DiscreteGradient`] there is no truncation-error term:
+/// each step satisfies E(x′) − E(x) = h ∇̄Eᵀ K ∇̄E ≥ 0 whatever h, once its
+/// implicit equation is solved. What is left is rounding: the equation is
+/// solved until the update is at most 4ε‖x′‖, so the residual r of the
+/// accepted x′ is at most about 8ε‖x′‖ and shifts E by at most ‖∇̄E‖·‖r‖;
+/// and the discrete gradient's identity holds up to the rounding ρ of E at
+/// both ends (the same bound as above). Summed over the steps j from output
+/// k to k+1,
+///
+/// ```text
+/// τₖ = Σⱼ [ ρ(xⱼ) + ρ(xⱼ₊₁) + factor · 8ε·max(‖xⱼ‖, ‖xⱼ₊₁‖) · ‖∇̄E(xⱼ, xⱼ₊₁)‖ ],
+/// ```
+///
+/// with ‖∇̄H‖ + ‖∇̄S‖ in place of ‖∇̄E‖ for a classical system. A violation
+/// here means the guarantee failed, not that the step was too long.
 pub fn simulate<S: MetriplecticSystem>(
     model: &Model<S>,
     x0: &[f64],
@@ -168,26 +252,87 @@ pub fn simulate<S: MetriplecticSystem>(
             format!("{factor}: must be finite and ≥ 0"),
         ));
     }
-    let solution = integrate(
-        |_t, x, dx| model.vector_field_unchecked(x, dx),
-        x0,
-        t0,
-        t_end,
-        &options.integrator,
-        &options.output,
-    )?;
+    // DOPRI5's tolerances τₖ come from its outputs; the discrete gradient's
+    // from its steps.
+    let (solution, step_tolerances) = match options.method {
+        Method::Dopri5 => {
+            let solution = integrate(
+                |_t, x, dx| model.vector_field_unchecked(x, dx),
+                x0,
+                t0,
+                t_end,
+                &options.integrator,
+                &options.output,
+            )?;
+            (solution, None)
+        }
+        Method::DiscreteGradient { step } => {
+            if !(step.is_finite() && step > 0.0) {
+                return Err(invalid(
+                    "discrete-gradient step",
+                    format!("{step}: must be finite and > 0"),
+                ));
+            }
+            dopri::validate_start(x0, t0, t_end)?;
+            dopri::validate_output(t0, t_end, &options.output)?;
+            if options.integrator.max_steps == 0 {
+                return Err(invalid("max_steps", "must be at least 1".to_owned()));
+            }
+            let output = discrete_gradient::integrate(
+                model,
+                x0,
+                (t0, t_end),
+                step,
+                options.integrator.max_steps,
+                &options.output,
+                factor,
+            )?;
+            let solution = Integration {
+                times: output.times,
+                states: output.states,
+                stats: output.stats,
+            };
+            (solution, Some(output.tolerances))
+        }
+    };
     let n = S::DIM;
     let count = solution.times.len();
     let mut derivatives = vec![0.0; count * n];
     let mut free_energy = Vec::with_capacity(count);
+    for (k, x) in solution.states.chunks_exact(n).enumerate() {
+        model.vector_field_unchecked(x, &mut derivatives[k * n..(k + 1) * n]);
+        free_energy.push(model.free_energy(x)?);
+    }
+    let tolerances = match step_tolerances {
+        Some(tolerances) => tolerances,
+        None => dopri_tolerances(model, &solution.states, &options.integrator, factor),
+    };
+    let energy = check_energy(&free_energy, &tolerances);
+    let names = S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect();
+    let trajectory = Trajectory::new(names, solution.times, solution.states, Some(derivatives))?;
+    Ok(Simulation {
+        trajectory,
+        free_energy,
+        energy,
+        stats: solution.stats,
+    })
+}
+
+/// τₖ of DOPRI5's outputs (see [`simulate`]).
+fn dopri_tolerances<S: MetriplecticSystem>(
+    model: &Model<S>,
+    states: &[f64],
+    options: &IntegratorOptions,
+    factor: f64,
+) -> Vec<f64> {
+    let n = S::DIM;
+    let count = states.len() / n;
     let mut gradient_norms = Vec::with_capacity(count);
     let mut rounding = Vec::with_capacity(count);
     let mut grad = vec![0.0; n];
     let mut features = vec![0.0; S::entropy_coefficient_count()];
     let terms = (S::entropy_coefficient_count() + S::ENTROPY_DEGREE as usize) as f64;
-    for (k, x) in solution.states.chunks_exact(n).enumerate() {
-        model.vector_field_unchecked(x, &mut derivatives[k * n..(k + 1) * n]);
-        free_energy.push(model.free_energy(x)?);
+    for x in states.chunks_exact(n) {
         model.free_energy_gradient_unchecked(x, &mut grad);
         gradient_norms.push(energy::norm(&grad));
         S::entropy_features(x, &mut features);
@@ -199,21 +344,5 @@ pub fn simulate<S: MetriplecticSystem>(
                 .sum::<f64>();
         rounding.push(terms * f64::EPSILON * magnitude);
     }
-    let energy = check_energy(
-        &free_energy,
-        &gradient_norms,
-        &rounding,
-        &solution.states,
-        n,
-        &options.integrator,
-        factor,
-    );
-    let names = S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect();
-    let trajectory = Trajectory::new(names, solution.times, solution.states, Some(derivatives))?;
-    Ok(Simulation {
-        trajectory,
-        free_energy,
-        energy,
-        stats: solution.stats,
-    })
+    integrator_tolerances(&gradient_norms, &rounding, states, n, options, factor)
 }
