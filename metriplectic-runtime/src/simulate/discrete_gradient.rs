@@ -103,8 +103,12 @@ use crate::system::MetriplecticSystem;
 /// Largest number of iterations of one implicit equation.
 const MAX_ITERATIONS: u32 = 200;
 
-/// An iterate is accepted once its update is at most this many ulps of the state.
-const ACCEPT_ULPS: f64 = 4.0;
+/// An iterate is accepted once its update is at most this many ulps of the
+/// state and no longer falls: the map's own rounding (the discrete
+/// gradient's quotient, the classical projections) leaves updates of a few
+/// ulps that do not shrink further; measured up to 5.3 ulps on the
+/// classical rigid body at |p| ≈ 1.2.
+const ACCEPT_ULPS: f64 = 64.0;
 
 /// An iteration whose update falls by less than this factor is too slow:
 /// it gets a (new) Jacobian. Measured on the quartic test flow at
