@@ -8,12 +8,16 @@
 //! the examples and the tests in `tests/` run the same code. [`from_csv`] is
 //! the pipeline of the `from_csv` example: identification from a user's
 //! trajectory CSV; [`synthetic_csv`] writes such CSVs from the reference
-//! models (the `synthesize_csv` example).
+//! models (the `synthesize_csv` example). [`classical`] identifies and
+//! simulates a system in the classical (GENERIC) form (the `classical`
+//! example).
 
+pub mod classical;
 pub mod experiments;
 pub mod figures;
 pub mod from_csv;
 pub mod reproduction;
+mod summary_file;
 pub mod synthetic_csv;
 pub mod systems;
 pub mod what_the_data_determine;

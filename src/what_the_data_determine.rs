@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::experiments;
 use crate::reproduction::polynomial_to_string;
+use crate::summary_file;
 use crate::systems::{Linear2d, Linear2dDegree10};
 
 /// Command-line options.
@@ -95,15 +96,7 @@ pub struct Summary {
 pub fn run(options: &Options) -> Result<Summary> {
     let started = Instant::now();
     let summary_path = options.out.join("summary.json");
-    if summary_path.exists() && !options.force {
-        return Err(Error::InvalidArgument {
-            what: "output".into(),
-            reason: format!(
-                "{} exists; pass --force to overwrite it",
-                summary_path.display()
-            ),
-        });
-    }
+    summary_file::check_writable(&summary_path, options.force)?;
     let truth = Model::<Linear2d>::reference()?;
     let data = measured_data(options)?;
     let config = IdentifyConfig::default();
@@ -259,12 +252,7 @@ pub fn run(options: &Options) -> Result<Summary> {
         selected_entropy_degree: selected,
         seconds_total: started.elapsed().as_secs_f64(),
     };
-    std::fs::create_dir_all(&options.out).map_err(|e| io_error(&options.out, e))?;
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::InvalidArgument {
-        what: "summary".into(),
-        reason: e.to_string(),
-    })?;
-    std::fs::write(&summary_path, json).map_err(|e| io_error(&summary_path, e))?;
+    summary_file::write(&summary_path, &summary)?;
     if !options.quiet {
         println!(
             "{report}wrote {} ({:.1} s)",
@@ -290,13 +278,6 @@ fn monomial(names: &[&str], exponents: &[u32]) -> String {
         })
         .collect();
     factors.join(" ")
-}
-
-fn io_error(path: &std::path::Path, err: std::io::Error) -> Error {
-    Error::InvalidArgument {
-        what: path.display().to_string(),
-        reason: err.to_string(),
-    }
 }
 
 /// The weak-form training, validation and per-trajectory data, and clean
