@@ -149,11 +149,7 @@ pub fn run(options: &Options) -> Result<Summary> {
             ..SimulationOptions::default()
         },
     )?)?;
-    let drift = |runs: &[Simulation]| {
-        runs.iter()
-            .map(|run| energy_drift(run))
-            .fold(0.0_f64, f64::max)
-    };
+    let drift = |runs: &[Simulation]| runs.iter().map(energy_drift).fold(0.0_f64, f64::max);
     let (decreases, steps, largest_entropy_decrease) = entropy_decreases(&model, &dg)?;
     let summary = Summary {
         iterations: fit.history.iterations.len(),
