@@ -103,7 +103,9 @@ use proc_macro::TokenStream;
 /// (without a region K is constant and usually must vanish: declare a
 /// region and a metric degree of at least 2·deg ∇H, where
 /// K(x) = c(|∇H|²I − ∇H∇Hᵀ) qualifies). A reference model must satisfy both
-/// identities, checked exactly.
+/// identities, checked exactly. At run time every search imposes both, the
+/// identified model meets them to rounding, and `Method::DiscreteGradient`
+/// simulates it with H conserved and S non-decreasing.
 ///
 /// # Expressions
 ///
