@@ -53,25 +53,32 @@
 //!
 //! The identities above hold for the *exact* solution of the implicit
 //! equation x′ = Φ(x′), so it is solved to rounding. The guess is the
-//! previous increments extrapolated (explicit Euler for the first step).
-//! Each iteration moves x′ by J⁻¹(Φ(x′) − x′): J = I is the fixed-point
-//! iteration, which contracts only while h/2 times the Lipschitz constant of
-//! the vector field is below 1; J ≈ I − Φ′(x′) by forward differences is
-//! simplified Newton, which converges at any step the scheme's own
-//! stability allows. The iteration starts as a fixed point and takes a
-//! Jacobian (n extra evaluations of Φ) whenever an update falls by less
-//! than a factor 10⁴; the Jacobian is kept across steps, refactored for a
-//! new step size. Measured on a quartic test flow (see the tests): the
-//! fixed point alone needs 7.5 / 11.4 / 19.5 evaluations of Φ per step at
-//! h = 0.01 / 0.05 / 0.2 and diverges at h = 0.5; with Newton 5.2 / 6.0 /
-//! 7.1 and 9.0 at h = 0.5.
+//! previous increments extrapolated (x itself for the first step, and again
+//! if the iteration from the extrapolation fails). Each iteration moves x′
+//! by J⁻¹(Φ(x′) − x′): J = I is the fixed-point iteration, which contracts
+//! only while h/2 times the Lipschitz constant of the vector field is below
+//! 1, no better than an explicit method's stability limit; J ≈ I − Φ′(x′)
+//! by forward differences is simplified Newton. The iteration starts as a
+//! fixed point and takes a Jacobian (n extra evaluations of Φ) whenever an
+//! update falls by less than a factor 10⁴; the Jacobian is kept across
+//! steps and refactored for a new step size. A Newton step that raises the
+//! residual ‖Φ(x′) − x′‖ is halved (damped Newton), which lets the first
+//! step from a stiff start converge where the full step diverges. Measured
+//! on a quartic test flow (`newton_takes_steps_the_fixed_point_iteration_cannot`):
+//! the fixed point alone needs 7.5 / 11.4 / 19.5 evaluations of Φ per step
+//! at h = 0.01 / 0.05 / 0.2 and diverges at h = 0.5; with Newton 5.1 / 5.9 /
+//! 7.0, and 8.7 at h = 0.5.
 //!
-//! It stops once the update stops decreasing and is at most
-//! 4ε·max(‖x‖, ‖x′‖) (ε the machine epsilon), and accepts the iterate with
-//! the smallest update; at most 200 iterations and 4 Jacobians per step.
-//! An iteration that diverges, or stalls above that bound, is a
+//! It stops once the update stops decreasing and is at most a few ulps of
+//! the state, 4ε·max(‖x‖, ‖x′‖) (ε the machine epsilon), plus the rounding
+//! of Φ itself (below), and accepts the iterate with the smallest update;
+//! at most 200 evaluations of Φ and 10 Jacobians per step. An iteration
+//! that diverges, or stalls above that bound, is a
 //! [`SimulationError::StepNotConverged`] naming the step: a smaller step
-//! brings the guess closer and the equation nearer the identity.
+//! brings the guess closer and the equation nearer the identity. The
+//! equation need not have a solution near x when h is far beyond the time
+//! scale of the flow: the paper's 2-D system from |q| ≈ 1.5, where
+//! |λ| ≈ 2000, needs h ≤ 0.01 for its first step.
 //!
 //! # Rounding
 //!
@@ -86,6 +93,13 @@
 //! blended linearly in between (a continuous map). The identity then holds
 //! up to ρ(x) + ρ(x′) instead of exactly, which is the rounding of E at both
 //! ends that the free-energy check allows anyway.
+//!
+//! Where the correction is kept, its rounding, up to 2(ρ(x) + ρ(x′))/|Δ|,
+//! and that of ∇F(x̄), (p + r)·ε times the magnitude of the gradient's
+//! terms, pass through h(Π + K) into Φ: no iterate can have a smaller
+//! update than that, so it is added to the stopping bound. The residual
+//! left enters the free-energy tolerance of [`simulate`](crate::simulate)
+//! as measured.
 //!
 //! # Steps and outputs
 //!
@@ -118,7 +132,10 @@ const ACCEPT_ULPS: f64 = 64.0;
 const SLOW: f64 = 1e-4;
 
 /// Jacobians computed at most per step.
-const MAX_JACOBIANS: u32 = 4;
+const MAX_JACOBIANS: u32 = 10;
+
+/// The smallest fraction of a Newton step damping tries.
+const MIN_FRACTION: f64 = 1.0 / 1024.0;
 
 /// The result of [`integrate`]: outputs and the free-energy tolerance of
 /// each pair of consecutive outputs.
@@ -232,9 +249,7 @@ fn integrate_with<S: MetriplecticSystem>(
     let mut x = x0.to_vec();
     let mut x_next = vec![0.0; n];
     let mut energy = stepper.energy(&x);
-    // The guess of each step's increment: explicit Euler first, then the
-    // previous increments extrapolated.
-    let mut guess = Guess::new(field);
+    let mut guess = Guess::new(n);
     let mut times = Vec::new();
     let mut states = Vec::new();
     let mut tolerances = Vec::new();
@@ -253,10 +268,16 @@ fn integrate_with<S: MetriplecticSystem>(
                 start + (target - start) * (i as f64 / count as f64)
             };
             let h = next_tau - tau;
-            guess.predict(&x, h, &mut x_next);
-            let solved = stepper
-                .solve(&x, energy, h, &mut x_next, &mut stats)
-                .map_err(|(update, iterations)| SimulationError::StepNotConverged {
+            let extrapolated = guess.predict(&x, h, &mut x_next);
+            let mut solved = stepper.solve(&x, energy, h, &mut x_next, &mut stats);
+            if solved.is_err() && extrapolated {
+                // The extrapolation can overshoot where the flow turns
+                // sharply: start again from x.
+                x_next.copy_from_slice(&x);
+                solved = stepper.solve(&x, energy, h, &mut x_next, &mut stats);
+            }
+            let solved =
+                solved.map_err(|(update, iterations)| SimulationError::StepNotConverged {
                     step: step_index,
                     t: t0 + tau,
                     h,
@@ -312,38 +333,44 @@ fn integrate_with<S: MetriplecticSystem>(
 
 /// The initial guess of each implicit equation, from the previous steps.
 struct Guess {
-    /// The last two increments x′ − x, newest first, and their step sizes.
+    /// The last two increments x′ − x, newest first, and their step sizes
+    /// (NaN before there is one).
     last: Vec<f64>,
     before: Vec<f64>,
     steps: (f64, f64),
 }
 
 impl Guess {
-    /// Starts from the vector field at x₀ (explicit Euler).
-    fn new(field: Vec<f64>) -> Self {
-        let n = field.len();
+    fn new(n: usize) -> Self {
         Self {
-            last: field,
+            last: vec![0.0; n],
             before: vec![0.0; n],
-            steps: (1.0, f64::NAN),
+            steps: (f64::NAN, f64::NAN),
         }
     }
 
-    /// x + the predicted increment of a step of size `h`: the last two
-    /// increments extrapolated linearly (local error O(h³)) after two
-    /// steps of this size, otherwise the last one rescaled (O(h²)).
-    fn predict(&self, x: &[f64], h: f64, out: &mut [f64]) {
+    /// x + the predicted increment of a step of size `h` into `out`: the
+    /// last two increments extrapolated linearly (local error O(h³)) after
+    /// two steps of this size, the last one rescaled (O(h²)) after one, and
+    /// no increment before the first step: an explicit Euler guess can land
+    /// far outside where Newton converges on a stiff start. `false` if the
+    /// guess is x itself.
+    fn predict(&self, x: &[f64], h: f64, out: &mut [f64]) -> bool {
         let (last, before) = self.steps;
         if h == last && h == before {
             for (((o, xi), d), p) in out.iter_mut().zip(x).zip(&self.last).zip(&self.before) {
                 *o = xi + (2.0 * d - p);
             }
-        } else {
+        } else if last.is_finite() {
             let scale = h / last;
             for ((o, xi), d) in out.iter_mut().zip(x).zip(&self.last) {
                 *o = xi + scale * d;
             }
+        } else {
+            out.copy_from_slice(x);
+            return false;
         }
+        true
     }
 
     /// Records the accepted step from `x` to `next`.
@@ -391,6 +418,8 @@ struct Solved {
     gradient_norm: f64,
     /// ‖Φ(x′) − x′‖, the residual of the implicit equation.
     residual: f64,
+    /// A bound on the rounding error of Φ(x′) (Frobenius norms).
+    noise: f64,
 }
 
 /// Buffers of one integration.
@@ -413,6 +442,7 @@ struct Stepper<'a, S: MetriplecticSystem> {
     /// The best iterate so far, Φ at the current one, Φ(y) − y and the
     /// update J⁻¹(Φ(y) − y).
     best: Vec<f64>,
+    base: Vec<f64>,
     image: Vec<f64>,
     residual: Vec<f64>,
     update: Vec<f64>,
@@ -420,6 +450,10 @@ struct Stepper<'a, S: MetriplecticSystem> {
     newton: Option<Newton>,
     /// Jacobians allowed per step (0: the fixed-point iteration only).
     max_jacobians: u32,
+    /// |ψ|, for the rounding bound of ∇S.
+    absolute_psi: Vec<f64>,
+    /// Rounding bounds of ∇H and ∇S near this step's midpoint.
+    gradient_rounding: (f64, f64),
 }
 
 /// The Jacobian of simplified Newton and its factors.
@@ -464,11 +498,18 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             projected: vec![0.0; n],
             product: vec![0.0; n],
             best: vec![0.0; n],
+            base: vec![0.0; n],
             image: vec![0.0; n],
             residual: vec![0.0; n],
             update: vec![0.0; n],
             newton: None,
             max_jacobians: MAX_JACOBIANS,
+            absolute_psi: model
+                .entropy_coefficients()
+                .iter()
+                .map(|c| c.abs())
+                .collect(),
+            gradient_rounding: (0.0, 0.0),
         }
     }
 
@@ -511,8 +552,10 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         stats: &mut IntegrationStats,
     ) -> std::result::Result<Solved, (f64, u32)> {
         let scale_x = norm(x);
-        let tolerance =
-            |y: &[f64]| ACCEPT_ULPS * f64::EPSILON * scale_x.max(norm(y)) + f64::MIN_POSITIVE;
+        let tolerance = |y: &[f64], noise: f64| {
+            ACCEPT_ULPS * f64::EPSILON * scale_x.max(norm(y)) + noise + f64::MIN_POSITIVE
+        };
+        self.estimate_gradient_rounding(x, y);
         if self.newton.as_ref().is_some_and(|newton| newton.step != h) {
             self.refactor(h);
         }
@@ -522,6 +565,10 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         let mut update = f64::NAN;
         let mut jacobians = 0;
         let mut converged = false;
+        // The last iterate a step was taken from, its residual, and the
+        // fraction of the step (in `self.update`) taken from it.
+        let mut base_residual = f64::INFINITY;
+        let mut fraction = 1.0;
         for iteration in 1..=MAX_ITERATIONS {
             let mut solved = self.map(x, at_x, h, y);
             stats.evaluations = stats.evaluations.saturating_add(1);
@@ -529,6 +576,18 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
                 *r = image - yj;
             }
             solved.residual = norm(&self.residual);
+            // Damped Newton: a step that raised the residual (above rounding)
+            // is halved, back from the iterate it was taken from.
+            let worse = solved.residual.is_nan()
+                || (solved.residual > base_residual
+                    && solved.residual > tolerance(y, solved.noise));
+            if self.newton.is_some() && fraction > MIN_FRACTION && worse {
+                fraction *= 0.5;
+                for ((yj, b), d) in y.iter_mut().zip(&self.base).zip(&self.update) {
+                    *yj = b + fraction * d;
+                }
+                continue;
+            }
             self.direction();
             update = norm(&self.update);
             if !update.is_finite() {
@@ -550,7 +609,7 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
                 self.best.copy_from_slice(y);
                 best = Some((update, solved));
             }
-            let tolerance = tolerance(y);
+            let tolerance = tolerance(y, solved.noise);
             // Converged: the update is at rounding level and no longer falls.
             if update <= tolerance && (update == 0.0 || update >= previous) {
                 converged = true;
@@ -566,18 +625,36 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             } else {
                 previous = update;
             }
+            self.base.copy_from_slice(y);
+            base_residual = solved.residual;
+            fraction = 1.0;
             for (yj, d) in y.iter_mut().zip(&self.update) {
                 *yj += d;
             }
         }
         match best {
             // After the cap, the best iterate may still be at rounding level.
-            Some((smallest, solved)) if converged || smallest <= tolerance(&self.best) => {
+            Some((smallest, solved))
+                if converged || smallest <= tolerance(&self.best, solved.noise) =>
+            {
                 y.copy_from_slice(&self.best);
                 Ok(solved)
             }
             _ => Err((update, MAX_ITERATIONS)),
         }
+    }
+
+    /// Rounding bounds of ∇H and ∇S at the midpoint of `x` and the guess
+    /// `y`: (p + r)·ε times ‖∇H‖ and ‖Σₖ|ψₖ||∇φₖ|‖ (∇S with |ψ| at |x̄|),
+    /// the magnitudes of the terms the gradients sum.
+    fn estimate_gradient_rounding(&mut self, x: &[f64], y: &[f64]) {
+        for ((m, a), b) in self.midpoint.iter_mut().zip(x).zip(y) {
+            *m = (0.5 * (a + b)).abs();
+        }
+        S::hamiltonian_gradient(&self.midpoint, &mut self.gradient);
+        S::entropy_gradient(&self.midpoint, &self.absolute_psi, &mut self.gradient_s);
+        let bound = self.terms * f64::EPSILON;
+        self.gradient_rounding = (bound * norm(&self.gradient), bound * norm(&self.gradient_s));
     }
 
     /// The update J⁻¹(Φ(y) − y) from `self.residual` into `self.update`.
@@ -649,7 +726,7 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         let theta = self.model.metric_coefficients();
         S::poisson(&self.midpoint, &mut self.poisson);
         S::metric_value(&self.midpoint, theta, &mut self.metric);
-        let gradient_norm;
+        let (gradient_norm, noise);
         if self.classical {
             S::hamiltonian_gradient(&self.midpoint, &mut self.gradient);
             S::entropy_gradient(
@@ -657,20 +734,28 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
                 self.model.entropy_coefficients(),
                 &mut self.gradient_s,
             );
-            discrete_gradient(
-                &mut self.gradient,
-                &self.delta,
-                at_y.hamiltonian - at_x.hamiltonian,
-                0.5 * (at_x.rounding_h + at_y.rounding_h),
-            );
-            discrete_gradient(
-                &mut self.gradient_s,
-                &self.delta,
-                at_y.entropy - at_x.entropy,
-                0.5 * (at_x.rounding_s + at_y.rounding_s),
-            );
+            let noise_a = self.gradient_rounding.0
+                + discrete_gradient(
+                    &mut self.gradient,
+                    &self.delta,
+                    at_y.hamiltonian - at_x.hamiltonian,
+                    0.5 * (at_x.rounding_h + at_y.rounding_h),
+                );
+            let noise_b = self.gradient_rounding.1
+                + discrete_gradient(
+                    &mut self.gradient_s,
+                    &self.delta,
+                    at_y.entropy - at_x.entropy,
+                    0.5 * (at_x.rounding_s + at_y.rounding_s),
+                );
             let (a, b) = (&self.gradient, &self.gradient_s);
-            gradient_norm = norm(a) + norm(b);
+            let (norm_a, norm_b) = (norm(a), norm(b));
+            gradient_norm = norm_a + norm_b;
+            // Q Π Q a moves with a, and with b's direction through Q; P K P b likewise.
+            let ratio = |u: f64, v: f64| if v > 0.0 { u / v } else { 0.0 };
+            noise = h
+                * (norm(&self.poisson) * (noise_a + 2.0 * ratio(norm_a, norm_b) * noise_b)
+                    + norm(&self.metric) * (noise_b + 2.0 * ratio(norm_b, norm_a) * noise_a));
             // Q Π Q a.
             project(b, a, &mut self.projected);
             multiply(&self.poisson, &self.projected, &mut self.product);
@@ -686,16 +771,19 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         } else {
             self.model
                 .free_energy_gradient_unchecked(&self.midpoint, &mut self.gradient);
-            discrete_gradient(
-                &mut self.gradient,
-                &self.delta,
-                at_y.free_energy() - at_x.free_energy(),
-                0.5 * (at_x.rounding() + at_y.rounding()),
-            );
+            let gradient_noise = self.gradient_rounding.0
+                + self.gradient_rounding.1
+                + discrete_gradient(
+                    &mut self.gradient,
+                    &self.delta,
+                    at_y.free_energy() - at_x.free_energy(),
+                    0.5 * (at_x.rounding() + at_y.rounding()),
+                );
             gradient_norm = norm(&self.gradient);
             for (p, k) in self.poisson.iter_mut().zip(&self.metric) {
                 *p += k;
             }
+            noise = h * norm(&self.poisson) * gradient_noise;
             multiply(&self.poisson, &self.gradient, &mut self.product);
             for ((image, xj), p) in self.image.iter_mut().zip(x).zip(&self.product) {
                 *image = xj + h * p;
@@ -705,6 +793,7 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             energy: at_y,
             gradient_norm,
             residual: f64::NAN,
+            noise,
         }
     }
 }
@@ -712,27 +801,31 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
 /// Turns ∇F(x̄) in `gradient` into Gonzalez's ∇̄F(x, x′) for Δ = x′ − x and
 /// `difference` = F(x′) − F(x): adds c·Δ with
 /// c = (F(x′) − F(x) − ∇F(x̄)·Δ)/|Δ|², the numerator treated as zero within
-/// the rounding bound `rounding` of its evaluation, kept beyond twice it,
-/// and blended linearly in between (see the module documentation).
-fn discrete_gradient(gradient: &mut [f64], delta: &[f64], difference: f64, rounding: f64) {
+/// `threshold` (half the rounding bound of the difference), kept beyond
+/// twice it, and blended linearly in between (see the module
+/// documentation). Returns a bound on the rounding error this term adds to
+/// the gradient: the difference's rounding bound 2·`threshold` times the
+/// blend's slope, over |Δ|.
+fn discrete_gradient(gradient: &mut [f64], delta: &[f64], difference: f64, threshold: f64) -> f64 {
     let squared: f64 = delta.iter().map(|d| d * d).sum();
     if !(squared.is_normal()) {
-        return;
+        return 0.0;
     }
     let linear: f64 = gradient.iter().zip(delta).map(|(g, d)| g * d).sum();
     let numerator = difference - linear;
     let size = numerator.abs();
-    let kept = if size <= rounding {
-        0.0
-    } else if size >= 2.0 * rounding {
-        numerator
+    let (kept, slope) = if size <= threshold {
+        (0.0, 0.0)
+    } else if size >= 2.0 * threshold {
+        (numerator, 1.0)
     } else {
-        2.0 * (size - rounding) * numerator.signum()
+        (2.0 * (size - threshold) * numerator.signum(), 2.0)
     };
     let c = kept / squared;
     for (g, d) in gradient.iter_mut().zip(delta) {
         *g += c * d;
     }
+    slope * 2.0 * threshold / squared.sqrt()
 }
 
 /// (I − g gᵀ/|g|²) v into `out` (v itself if g = 0).

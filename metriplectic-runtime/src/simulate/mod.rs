@@ -224,15 +224,16 @@ pub fn simulate_many<S: MetriplecticSystem>(
 ///
 /// With [`Method::DiscreteGradient`] there is no truncation-error term:
 /// each step satisfies E(x′) − E(x) = h ∇̄Eᵀ K ∇̄E ≥ 0 whatever h, once its
-/// implicit equation is solved. What is left is rounding: the equation is
-/// solved until the update is at most 4ε‖x′‖, so the residual r of the
-/// accepted x′ is at most about 8ε‖x′‖ and shifts E by at most ‖∇̄E‖·‖r‖;
-/// and the discrete gradient's identity holds up to the rounding ρ of E at
-/// both ends (the same bound as above). Summed over the steps j from output
-/// k to k+1,
+/// implicit equation x′ − x = h(Π + K)∇̄E is solved. What is left is
+/// rounding: the discrete gradient's identity holds up to the rounding ρ of
+/// E at both ends (the same bound as above), and the equation is solved to
+/// a residual rⱼ = ‖Φ(x′) − x′‖ of a few ulps (measured at the accepted
+/// x′), which shifts E by at most ‖∇̄E‖·rⱼ; 4ε·max(‖xⱼ‖, ‖xⱼ₊₁‖) more covers
+/// the rounding of evaluating that residual. Summed over the steps j from
+/// output k to k+1,
 ///
 /// ```text
-/// τₖ = Σⱼ [ ρ(xⱼ) + ρ(xⱼ₊₁) + factor · 8ε·max(‖xⱼ‖, ‖xⱼ₊₁‖) · ‖∇̄E(xⱼ, xⱼ₊₁)‖ ],
+/// τₖ = Σⱼ [ ρ(xⱼ) + ρ(xⱼ₊₁) + factor · ‖∇̄E(xⱼ, xⱼ₊₁)‖ · (rⱼ + 4ε·max(‖xⱼ‖, ‖xⱼ₊₁‖)) ],
 /// ```
 ///
 /// with ‖∇̄H‖ + ‖∇̄S‖ in place of ‖∇̄E‖ for a classical system. A violation
