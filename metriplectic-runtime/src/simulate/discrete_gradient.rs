@@ -219,7 +219,7 @@ fn integrate_with<S: MetriplecticSystem>(
     let mut total_steps: u64 = 0;
     let mut previous = 0.0;
     for &tau in &landmarks {
-        total_steps += steps_between(previous, tau, step);
+        total_steps = total_steps.saturating_add(steps_between(previous, tau, step));
         previous = tau;
     }
     if total_steps > u64::from(max_steps) {
@@ -439,8 +439,8 @@ struct Stepper<'a, S: MetriplecticSystem> {
     metric: Vec<f64>,
     projected: Vec<f64>,
     product: Vec<f64>,
-    /// The best iterate so far, Φ at the current one, Φ(y) − y and the
-    /// update J⁻¹(Φ(y) − y).
+    /// The best iterate so far, the one the last update was taken from,
+    /// Φ at the current one, Φ(y) − y and the update J⁻¹(Φ(y) − y).
     best: Vec<f64>,
     base: Vec<f64>,
     image: Vec<f64>,
@@ -1164,6 +1164,57 @@ mod tests {
         assert!(dopri_drift > 1e3 * drift.max(1e-16));
     }
 
+    /// The projections make H conserved and S non-decreasing for any
+    /// model, also one far from the classical constraints: here Π∇S ≠ 0
+    /// (S has terms that are no Casimir) and K∇H ≠ 0 (K has
+    /// diag(0.2, 0.05, 0.1) added, anisotropic so that P K P b differs
+    /// from P K b).
+    #[test]
+    fn classical_form_conserves_h_for_any_model() {
+        // ψ over x, y, z, x², xy, xz, y², yz, z²: −|p|² + 0.2x + 0.3xy.
+        let psi = vec![0.2, 0.0, 0.0, -1.0, 0.3, 0.0, -1.0, 0.0, -1.0];
+        let mut theta = ClassicalBody::REFERENCE_METRIC.unwrap().to_vec();
+        let basis = ClassicalBody::METRIC_EXPONENTS.len();
+        for (j, added) in [0.2, 0.05, 0.1].into_iter().enumerate() {
+            theta[crate::system::metric_pair_index(3, j, j) * basis] += added;
+        }
+        let model = Model::<ClassicalBody>::new(psi, theta).unwrap();
+        let x0 = [0.3, 1.0, 0.6];
+        // Far from classical at x0: |Π∇S| and |K∇H| are O(0.1).
+        let (mut grad_s, mut grad_h, mut pi, mut k) = ([0.0; 3], [0.0; 3], [0.0; 9], [0.0; 9]);
+        ClassicalBody::entropy_gradient(&x0, model.entropy_coefficients(), &mut grad_s);
+        ClassicalBody::hamiltonian_gradient(&x0, &mut grad_h);
+        ClassicalBody::poisson(&x0, &mut pi);
+        model.metric(&x0, &mut k).unwrap();
+        let (mut pi_s, mut k_h) = ([0.0; 3], [0.0; 3]);
+        multiply(&pi, &grad_s, &mut pi_s);
+        multiply(&k, &grad_h, &mut k_h);
+        assert!(norm(&pi_s) > 0.05 && norm(&k_h) > 0.05, "{pi_s:?} {k_h:?}");
+
+        let sim = run(&model, &x0, 500.0, 0.05);
+        let h0 = ClassicalBody::hamiltonian(&x0);
+        let mut drift = 0.0f64;
+        let mut entropy = Vec::new();
+        for k in 0..sim.trajectory.len() {
+            let x = sim.trajectory.state(k);
+            drift = drift.max((ClassicalBody::hamiltonian(x) - h0).abs() / h0.abs());
+            entropy.push(model.entropy(x).unwrap());
+        }
+        let ulps = largest_decrease_in_ulps(&entropy);
+        println!(
+            "H drift {drift:.2e}, S {:.6} → {:.6}, largest S decrease {ulps:.2} ulps",
+            entropy[0],
+            entropy.last().unwrap()
+        );
+        assert!(drift <= 1e-12, "H drifted by {drift:e}");
+        assert!(ulps <= 4.0, "S fell by {ulps} ulps");
+        assert!(
+            entropy.last().unwrap() - entropy[0] > 0.1,
+            "S was not produced"
+        );
+        assert!(sim.energy.is_non_decreasing(), "{:?}", sim.energy);
+    }
+
     #[test]
     fn outputs_land_on_step_ends() {
         let model = Model::<Quartic>::reference().unwrap();
@@ -1226,6 +1277,10 @@ mod tests {
         too_many.integrator.max_steps = 999;
         let err = simulate(&model, &[1.0, 0.0], 0.0, 1.0, &too_many).unwrap_err();
         assert!(err.to_string().contains("1000 steps"), "{err}");
+        // A step so small that the count saturates is the same error.
+        let tiny = options(1e-300, OutputTimes::Interval(0.25));
+        let err = simulate(&model, &[1.0, 0.0], 0.0, 1.0, &tiny).unwrap_err();
+        assert!(err.to_string().contains("more than"), "{err}");
     }
 
     /// The fixed-point iteration contracts only while h·L < 2; beyond, the

@@ -97,9 +97,11 @@ pub enum Method {
     /// second order, and structure-preserving for every step size. For a
     /// generalized system E(x′) − E(x) = h ∇̄Eᵀ K ∇̄E ≥ 0 at every step; for
     /// a system declared `classical;` H is conserved and S never decreases
-    /// (projected operators). Exact up to rounding; the module
-    /// documentation of `simulate/discrete_gradient.rs` and
-    /// `docs/method.md` §9 give the details.
+    /// (projected operators). Exact up to rounding: the free-energy check
+    /// of [`simulate`] allows rounding only. `docs/method.md` §10 derives
+    /// both forms. Implicit: each step is solved to rounding (fixed point,
+    /// then damped simplified Newton); a step that cannot be solved is
+    /// [`SimulationError::StepNotConverged`](crate::SimulationError::StepNotConverged).
     ///
     /// Each interval between outputs is divided into the fewest equal steps
     /// no longer than `step`, so outputs fall on step ends; with
