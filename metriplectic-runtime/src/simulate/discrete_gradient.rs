@@ -69,8 +69,8 @@
 //! at h = 0.01 / 0.05 / 0.2 and diverges at h = 0.5; with Newton 5.1 / 5.9 /
 //! 7.0, and 8.7 at h = 0.5.
 //!
-//! It stops once the update stops decreasing and is at most a few ulps of
-//! the state, 4ε·max(‖x‖, ‖x′‖) (ε the machine epsilon), plus the rounding
+//! It stops once the update stops decreasing and is at most 64 ulps of
+//! the state, 64ε·max(‖x‖, ‖x′‖) (ε the machine epsilon), plus the rounding
 //! of Φ itself (below), and accepts the iterate with the smallest update;
 //! at most 200 evaluations of Φ and 10 Jacobians per step. An iteration
 //! that diverges, or stalls above that bound, is a

@@ -230,12 +230,12 @@ pub fn simulate_many<S: MetriplecticSystem>(
 /// rounding: the discrete gradient's identity holds up to the rounding ρ of
 /// E at both ends (the same bound as above), and the equation is solved to
 /// a residual rⱼ = ‖Φ(x′) − x′‖ of a few ulps (measured at the accepted
-/// x′), which shifts E by at most ‖∇̄E‖·rⱼ; 4ε·max(‖xⱼ‖, ‖xⱼ₊₁‖) more covers
+/// x′), which shifts E by at most ‖∇̄E‖·rⱼ; 64ε·max(‖xⱼ‖, ‖xⱼ₊₁‖) more covers
 /// the rounding of evaluating that residual. Summed over the steps j from
 /// output k to k+1,
 ///
 /// ```text
-/// τₖ = Σⱼ [ ρ(xⱼ) + ρ(xⱼ₊₁) + factor · ‖∇̄E(xⱼ, xⱼ₊₁)‖ · (rⱼ + 4ε·max(‖xⱼ‖, ‖xⱼ₊₁‖)) ],
+/// τₖ = Σⱼ [ ρ(xⱼ) + ρ(xⱼ₊₁) + factor · ‖∇̄E(xⱼ, xⱼ₊₁)‖ · (rⱼ + 64ε·max(‖xⱼ‖, ‖xⱼ₊₁‖)) ],
 /// ```
 ///
 /// with ‖∇̄H‖ + ‖∇̄S‖ in place of ‖∇̄E‖ for a classical system. A violation
