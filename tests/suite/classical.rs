@@ -146,3 +146,45 @@ fn the_classical_example_conserves_h_and_never_lets_s_fall() {
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(written, summary);
 }
+
+metriplectic! {
+    /// An oscillator beside a relaxing internal variable, in the classical
+    /// form without a region: Π acts on (q, p) only, so the Casimirs are
+    /// the functions of s, and a constant K with K∇H ≡ 0 acts on s only.
+    struct OscillatorAndInternalVariable;
+    state (q, p, s);
+    poisson = [[0, 1, 0], [-1, 0, 0], [0, 0, 0]];
+    hamiltonian = 0.5 * q^2 + 0.5 * p^2;
+    entropy degree 4;
+    metric degree 0;
+    classical;
+    reference {
+        entropy = -0.5 * s^2 - 0.25 * s^4;
+        metric = [[0, 0, 0], [0, 0, 0], [0, 0, 0.7]];
+    }
+}
+
+/// Where |∇H|²I − ∇H∇Hᵀ is not in the (constant) metric basis, a cold
+/// start begins at the identity projected onto K∇H ≡ 0.
+#[test]
+fn a_classical_system_without_a_region_starts_from_the_projected_identity() {
+    use metriplectic::systems::reference_samples;
+    use rand::Rng;
+    let sample = |count, seed| {
+        reference_samples::<OscillatorAndInternalVariable>(count, seed, |rng| {
+            (0..3).map(|_| rng.random_range(-1.5..1.5)).collect()
+        })
+    };
+    let (train, held_out) = (sample(300, 1), sample(100, 2));
+    let fit =
+        identify::<OscillatorAndInternalVariable>(&train, &IdentifyConfig::default()).unwrap();
+    let truth = Model::<OscillatorAndInternalVariable>::reference().unwrap();
+    let score = fit.model.compare(&truth, &held_out).unwrap();
+    assert!(score.relative_error <= 1e-6, "{score:?}");
+    // K acts on s alone.
+    let theta = fit.model.metric_coefficients();
+    assert!(
+        theta[..5].iter().all(|t| t.abs() < 1e-12) && theta[5] > 0.0,
+        "{theta:?}"
+    );
+}

@@ -13,15 +13,15 @@ use super::cost::{model_cost, Cost};
 use super::history::{
     History, IterationRecord, JointStepRecord, StepOutcome, StepRecord, StopReason,
 };
-use super::search::{entropy_search, joint_step, metric_search, SearchReport};
+use super::search::{entropy_search, joint_step, metric_search, SearchOptions, SearchReport};
 use super::state::RunState;
 use super::support::Gauge;
 use super::warnings::{data_warnings, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{Error, Result};
-use crate::model::classical::degenerate_metric;
-use crate::model::{identity_metric, Model};
+use crate::model::classical::{self, degenerate_metric, Equalities};
+use crate::model::{check_metric_coefficients, identity_metric, Model};
 
 use crate::system::MetriplecticSystem;
 
@@ -150,7 +150,7 @@ where
     let split = Split::new(data, config)?;
     let metric = match &config.initial_metric {
         Some(metric) => metric.clone(),
-        None => default_start_metric::<S>(config.search.gauge)?,
+        None => default_start_metric::<S>(&config.search)?,
     };
     let entropy = match &config.initial_entropy {
         Some(entropy) => entropy.clone(),
@@ -176,14 +176,27 @@ where
 
 /// The default start metric: the identity, or for a classical system
 /// (where the identity breaks K∇H ≡ 0) the degenerate metric
-/// |∇H|² I − ∇H ∇Hᵀ with largest eigenvalue 1 on the region; scaled to the
-/// gauge if one is set.
-fn default_start_metric<S: MetriplecticSystem>(gauge: Option<Gauge>) -> Result<Vec<f64>> {
+/// |∇H|² I − ∇H ∇Hᵀ with largest eigenvalue 1 on the region, or, where the
+/// metric basis cannot hold that, the identity projected onto K∇H ≡ 0 if
+/// the projection is a non-zero metric the certificate accepts; scaled to
+/// the gauge if one is set.
+fn default_start_metric<S: MetriplecticSystem>(options: &SearchOptions) -> Result<Vec<f64>> {
     let mut metric = if S::CLASSICAL.is_some() {
-        degenerate_metric::<S>(1.0)?
+        degenerate_metric::<S>(1.0).or_else(|unrepresentable| {
+            let mut projected = identity_metric::<S>(1.0);
+            let free = options.support.free_metric::<S>(options.sos);
+            Equalities::new(classical::metric_rows::<S>(), &free)
+                .project_coefficients(&mut projected);
+            let nonzero = projected.iter().any(|t| t.abs() > 1e-12);
+            match check_metric_coefficients::<S>("initial metric coefficients", &projected) {
+                Ok(()) if nonzero => Ok(projected),
+                _ => Err(unrepresentable),
+            }
+        })?
     } else {
         identity_metric::<S>(1.0)
     };
+    let gauge = options.gauge;
     if let Some(gauge) = gauge {
         let (value, wanted) = (gauge.value_at::<S>(&metric), gauge.row::<S>().1);
         if value > 0.0 {
