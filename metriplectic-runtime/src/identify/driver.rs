@@ -15,7 +15,6 @@ use super::history::{
 };
 use super::search::{entropy_search, joint_step, metric_search, SearchOptions, SearchReport};
 use super::state::RunState;
-use super::support::Gauge;
 use super::warnings::{data_warnings, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
