@@ -1128,13 +1128,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn classical_form_conserves_h_and_produces_s() {
-        let model = Model::<ClassicalBody>::reference().unwrap();
-        let x0 = [0.3, 1.0, 0.6];
-        let sim = run(&model, &x0, 500.0, 0.05);
-        assert_eq!(sim.stats.accepted_steps, 10_000);
-        let h0 = ClassicalBody::hamiltonian(&x0);
+    /// The largest relative drift of H along `sim`, and S at every output.
+    fn h_drift_and_entropy(model: &Model<ClassicalBody>, sim: &Simulation) -> (f64, Vec<f64>) {
+        let h0 = ClassicalBody::hamiltonian(sim.trajectory.state(0));
         let mut drift = 0.0f64;
         let mut entropy = Vec::new();
         for k in 0..sim.trajectory.len() {
@@ -1142,6 +1138,17 @@ mod tests {
             drift = drift.max((ClassicalBody::hamiltonian(x) - h0).abs() / h0.abs());
             entropy.push(model.entropy(x).unwrap());
         }
+        (drift, entropy)
+    }
+
+    #[test]
+    fn classical_form_conserves_h_and_produces_s() {
+        let model = Model::<ClassicalBody>::reference().unwrap();
+        let x0 = [0.3, 1.0, 0.6];
+        let sim = run(&model, &x0, 500.0, 0.05);
+        assert_eq!(sim.stats.accepted_steps, 10_000);
+        let h0 = ClassicalBody::hamiltonian(&x0);
+        let (drift, entropy) = h_drift_and_entropy(&model, &sim);
         let ulps = largest_decrease_in_ulps(&entropy);
         println!(
             "H drift {drift:.2e}, S {:.6} → {:.6}, largest S decrease {ulps:.2} ulps, {:?}",
@@ -1200,13 +1207,7 @@ mod tests {
 
         let sim = run(&model, &x0, 500.0, 0.05);
         let h0 = ClassicalBody::hamiltonian(&x0);
-        let mut drift = 0.0f64;
-        let mut entropy = Vec::new();
-        for k in 0..sim.trajectory.len() {
-            let x = sim.trajectory.state(k);
-            drift = drift.max((ClassicalBody::hamiltonian(x) - h0).abs() / h0.abs());
-            entropy.push(model.entropy(x).unwrap());
-        }
+        let (drift, entropy) = h_drift_and_entropy(&model, &sim);
         let ulps = largest_decrease_in_ulps(&entropy);
         println!(
             "H drift {drift:.2e}, S {:.6} → {:.6}, largest S decrease {ulps:.2} ulps",
