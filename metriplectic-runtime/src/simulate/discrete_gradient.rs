@@ -1206,7 +1206,6 @@ mod tests {
         );
 
         let sim = run(&model, &x0, 500.0, 0.05);
-        let h0 = ClassicalBody::hamiltonian(&x0);
         let (drift, entropy) = h_drift_and_entropy(&model, &sim);
         let ulps = largest_decrease_in_ulps(&entropy);
         println!(
