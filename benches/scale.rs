@@ -33,6 +33,7 @@ use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{entropy_search, SearchOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 metriplectic! {
     /// Three coupled oscillators, entropy degree 6.
@@ -146,8 +147,8 @@ impl<S: MetriplecticSystem> Case<S> {
 }
 
 /// The floor of one interior-point iteration: Aᵀ D A of the problem's own
-/// regression block and a random positive D (the rows scaled by √D into a
-/// buffer allocated once, then faer's lower-triangular product), and its
+/// regression block and a random positive D (the rows scaled by √D on
+/// every core into a buffer allocated once, then faer's lower-triangular product), and its
 /// Cholesky factorisation, all with faer on every core.
 struct Floor {
     rows: usize,
@@ -175,15 +176,14 @@ impl Floor {
     fn run(&mut self) -> f64 {
         let (r, k) = (self.rows, self.columns);
         let start = Instant::now();
-        for ((target, row), d) in self
-            .scaled
-            .chunks_exact_mut(k)
-            .zip(self.a.chunks_exact(k))
+        self.scaled
+            .par_chunks_exact_mut(k)
+            .zip(self.a.par_chunks_exact(k))
             .zip(&self.d)
-        {
-            let root = d.sqrt();
-            target.iter_mut().zip(row).for_each(|(t, a)| *t = root * a);
-        }
+            .for_each(|((target, row), d)| {
+                let root = d.sqrt();
+                target.iter_mut().zip(row).for_each(|(t, a)| *t = root * a);
+            });
         let scaled = MatRef::from_row_major_slice(&self.scaled, r, k);
         matmul(
             MatMut::from_column_major_slice_mut(&mut self.schur, k, k),

@@ -186,6 +186,21 @@ impl RowMajor {
         out
     }
 
+    /// Aᵀ w for a w that is zero outside a few rows: the sum of those rows,
+    /// scaled, in row order. Reads only those rows of A.
+    pub(crate) fn tr_mul_sparse(&self, w: &DVector<f64>) -> DVector<f64> {
+        assert_eq!(w.len(), self.rows, "Aᵀ w with w of A's height");
+        let mut out = DVector::zeros(self.columns);
+        for (i, &wi) in w.iter().enumerate() {
+            if wi != 0.0 {
+                out.iter_mut()
+                    .zip(self.row(i))
+                    .for_each(|(o, a)| *o += wi * a);
+            }
+        }
+        out
+    }
+
     /// (A v, Aᵀ w) in one pass over A: each slice of `FUSED_ROWS` rows is
     /// read from memory once and used twice from the cache.
     pub(crate) fn mul_and_tr_mul(
@@ -268,13 +283,24 @@ impl RowMajor {
             let rows = block.len() / k.max(1);
             let scaled = &mut buffer[..rows * k];
             let weights = &d.as_slice()[index * ROW_BLOCK..index * ROW_BLOCK + rows];
-            for ((target, row), weight) in scaled
-                .chunks_exact_mut(k.max(1))
-                .zip(block.chunks_exact(k.max(1)))
-                .zip(weights)
-            {
+            // Scaling is memory-bound; on one thread it would leave the
+            // other cores idle between the products.
+            let scale = |((target, row), weight): ((&mut [f64], &[f64]), &f64)| {
                 let root = weight.sqrt();
                 target.iter_mut().zip(row).for_each(|(t, a)| *t = root * a);
+            };
+            if matches!(parallelism((rows * k) as f64 * 64.0), Par::Seq) {
+                scaled
+                    .chunks_exact_mut(k.max(1))
+                    .zip(block.chunks_exact(k.max(1)))
+                    .zip(weights)
+                    .for_each(scale);
+            } else {
+                scaled
+                    .par_chunks_exact_mut(k.max(1))
+                    .zip(block.par_chunks_exact(k.max(1)))
+                    .zip(weights)
+                    .for_each(scale);
             }
             let scaled = MatRef::from_row_major_slice(scaled, rows, k);
             faer::linalg::matmul::triangular::matmul(
@@ -492,6 +518,18 @@ mod tests {
             .unwrap()
             .install(|| row_major_products(&a, &v, &w, &d));
         assert_eq!(one, products);
+    }
+
+    #[test]
+    fn sparse_transposed_product_matches_the_dense_one() {
+        let m = pseudo_random(300, 17, 4);
+        let a = RowMajor::from_matrix(&m);
+        let mut w = DVector::zeros(300);
+        for (i, v) in [(0, 1.5), (123, -0.25), (299, 2.0)] {
+            w[i] = v;
+        }
+        let error = (a.tr_mul_sparse(&w) - m.tr_mul(&w)).amax();
+        assert!(error < 1e-14, "{error}");
     }
 
     #[test]

@@ -93,6 +93,39 @@ impl SideRows {
         }
         rows
     }
+
+    /// G v for a G with this pattern (G or G̃: the orthant scaling is
+    /// diagonal and keeps it).
+    fn mul(&self, g: &DMatrix<f64>, v: &DVector<f64>) -> DVector<f64> {
+        if self.sparse.is_empty() {
+            return g * v;
+        }
+        let mut out = DVector::zeros(g.nrows());
+        for (i, columns) in &self.sparse {
+            out[*i] = columns.iter().map(|&j| g[(*i, j)] * v[j]).sum();
+        }
+        for &i in &self.dense {
+            out[i] = g.row(i).transpose().dot(v);
+        }
+        out
+    }
+
+    /// Gᵀ w for a G with this pattern.
+    fn tr_mul(&self, g: &DMatrix<f64>, w: &DVector<f64>) -> DVector<f64> {
+        if self.sparse.is_empty() {
+            return g.tr_mul(w);
+        }
+        let mut out = DVector::zeros(g.ncols());
+        for (i, columns) in &self.sparse {
+            for &j in columns {
+                out[j] += g[(*i, j)] * w[*i];
+            }
+        }
+        for &i in &self.dense {
+            out += g.row(i).transpose() * w[i];
+        }
+        out
+    }
 }
 
 /// Solves `problem` (see the module docs).
@@ -289,6 +322,33 @@ pub(crate) mod tests {
             )
             .unwrap();
         problem
+    }
+
+    /// `problem` reduced as `solve` reduces it, without equilibration.
+    pub(super) fn reduced(problem: &L1Problem) -> Reduced {
+        let split = split_constraints(problem);
+        let elimination = equalities::eliminate(&split.e, &split.f, problem.variables())
+            .unwrap_or_else(|_| panic!("consistent equalities"));
+        reduce(problem.regression.clone(), split, &elimination, 1.0)
+    }
+
+    #[test]
+    fn side_row_products_match_the_dense_ones() {
+        // A box on 40 coefficients (sparse rows) and one dense orthant row.
+        let width = 40;
+        let mut problem = box_problem(random_regression(60, width, 2), 5.0);
+        let dense_row: Vec<(usize, usize, f64)> =
+            (0..width).map(|k| (0, k, 1.0 + k as f64)).collect();
+        problem
+            .constrain(Cone::Nonnegative(1), dense_row, vec![1.0])
+            .unwrap();
+        let p = reduced(&problem);
+        assert_eq!(p.side_rows.sparse.len(), 2 * width);
+        assert_eq!(p.side_rows.dense, vec![2 * width]);
+        let v = DVector::from_fn(width, |k, _| (k as f64 * 0.37).sin());
+        let w = DVector::from_fn(2 * width + 1, |i, _| (i as f64 * 0.91).cos());
+        assert!((p.side_rows.mul(&p.g, &v) - &p.g * &v).amax() < 1e-13);
+        assert!((p.side_rows.tr_mul(&p.g, &w) - p.g.tr_mul(&w)).amax() < 1e-13);
     }
 
     #[test]

@@ -9,6 +9,8 @@
 //! digit and iterative refinement could not converge, which stalled the
 //! method at a relative gap of a few 1e-8.
 
+use std::cell::Cell;
+
 use nalgebra::{DMatrix, DVector};
 
 use crate::solve::linalg::{gram, Cholesky};
@@ -35,6 +37,8 @@ const MAX_REFINEMENT: usize = 8;
 /// problem is equilibrated, so these are in units of the data).
 const REFINEMENT_ABSOLUTE: f64 = 1e-12;
 const REFINEMENT_RELATIVE: f64 = 1e-13;
+/// Aᵀ w reads only w's non-zero rows when they are at most one in this many.
+const SPARSE_FRACTION: usize = 16;
 /// Most conjugate-gradient steps per Schur-complement solve.
 const MAX_CG: usize = 50;
 /// A Schur-complement solve stops at a residual this small relative to its
@@ -82,6 +86,10 @@ pub(super) struct Newton<'a> {
     /// D̃ = 4 d₁d₂/(d₁ + d₂), the L1 block's weight in the Schur complement.
     weights: DVector<f64>,
     schur: ScaledCholesky,
+    /// Whether a solve has been checked, and whether the first check
+    /// found the factor's solution accurate without refinement.
+    checked: Cell<bool>,
+    accurate: Cell<bool>,
 }
 
 impl<'a> Newton<'a> {
@@ -106,6 +114,8 @@ impl<'a> Newton<'a> {
             d2,
             weights,
             schur,
+            checked: Cell::new(false),
+            accurate: Cell::new(false),
         })
     }
 
@@ -114,7 +124,8 @@ impl<'a> Newton<'a> {
         let p = self.problem;
         let mut out = p.a.tr_mul(&p.a.mul(v).component_mul(&self.weights));
         if self.scaled_g.nrows() > 0 {
-            out += self.scaled_g.tr_mul(&(&self.scaled_g * v));
+            let rows = &self.problem.side_rows;
+            out += rows.tr_mul(&self.scaled_g, &rows.mul(&self.scaled_g, v));
         }
         out
     }
@@ -175,9 +186,18 @@ impl<'a> Newton<'a> {
     /// that does not improve it is discarded), up to `MAX_REFINEMENT`.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
         let (mut solution, floor) = self.solve_reduced(rhs, None);
+        if self.accurate.get() {
+            return solution;
+        }
         let mut residual = rhs.minus(&self.apply(&solution));
         let mut size = residual.amax();
         let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * rhs.amax();
+        // Checking costs a pass over A. A factor that needs no refinement
+        // on its first right-hand side needs none on the others (most LP
+        // iterations); one that does is checked on every solve.
+        if !self.checked.replace(true) && size <= enough {
+            self.accurate.set(true);
+        }
         for _ in 0..MAX_REFINEMENT {
             if size <= enough || size.is_nan() {
                 break;
@@ -204,8 +224,8 @@ impl<'a> Newton<'a> {
         let (ay, mut y) = p.a.mul_and_tr_mul(&v.y, &(&v.z2 - &v.z1));
         let mut zc = DVector::zeros(0);
         if p.g.nrows() > 0 {
-            y += self.scaled_g.tr_mul(&v.zc);
-            zc = &self.scaled_g * &v.y - &v.zc;
+            y += p.side_rows.tr_mul(&self.scaled_g, &v.zc);
+            zc = p.side_rows.mul(&self.scaled_g, &v.y) - &v.zc;
         }
         Kkt {
             y,
@@ -229,9 +249,17 @@ impl<'a> Newton<'a> {
         let diff = &self.d1 - &self.d2;
         let rhs_e = &b.e - &d1b - &d2b;
         let ratio = diff.component_div(&sum);
-        let mut rhs_y = &b.y + p.a.tr_mul(&(&d2b - &d1b - ratio.component_mul(&rhs_e)));
+        let rows = &d2b - &d1b - ratio.component_mul(&rhs_e);
+        // A corrector's right-hand side is non-zero in a few dozen rows.
+        let product = if rows.iter().filter(|v| **v != 0.0).count() * SPARSE_FRACTION <= rows.len()
+        {
+            p.a.tr_mul_sparse(&rows)
+        } else {
+            p.a.tr_mul(&rows)
+        };
+        let mut rhs_y = &b.y + product;
         if p.g.nrows() > 0 {
-            rhs_y += self.scaled_g.tr_mul(&b.zc);
+            rhs_y += p.side_rows.tr_mul(&self.scaled_g, &b.zc);
         }
         let (dy, floor) = match floor {
             Some(floor) => (self.solve_schur(&rhs_y, floor), floor),
@@ -244,7 +272,7 @@ impl<'a> Newton<'a> {
         let z1 = self.d1.component_mul(&(-&ady - &de - &b.z1));
         let z2 = self.d2.component_mul(&(&ady - &de - &b.z2));
         let zc = if p.g.nrows() > 0 {
-            &self.scaled_g * &dy - &b.zc
+            p.side_rows.mul(&self.scaled_g, &dy) - &b.zc
         } else {
             DVector::zeros(0)
         };
