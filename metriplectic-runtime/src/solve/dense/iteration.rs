@@ -1,5 +1,6 @@
 //! The interior-point iteration: an infeasible path-following method with
-//! Nesterov–Todd scaling and Mehrotra's predictor–corrector, organised like
+//! Nesterov–Todd scaling and Mehrotra's predictor–corrector (on linear
+//! programs also Gondzio's centrality correctors), organised like
 //! Clarabel's `solve()` as named steps: residuals, termination, scaling,
 //! predictor, centering, corrector, step length, update.
 

@@ -18,8 +18,9 @@
 //! equalities are eliminated first ([`equalities`]), so the iteration works
 //! on y alone; [`iteration`] is the standard infeasible path-following
 //! scheme with Nesterov–Todd scaling ([`cones`]) and Mehrotra's
-//! predictor–corrector, as in CVXOPT's `coneqp` without equalities, solving
-//! its Newton systems through the normal equations ([`newton`]). It has no
+//! predictor–corrector, as in CVXOPT's `coneqp` without equalities (on
+//! LPs with Gondzio's centrality correctors added), solving its Newton
+//! systems through the normal equations ([`newton`]). It has no
 //! homogeneous embedding and so no infeasibility certificate: the L1
 //! objective is bounded below and the searches' cones (box, SOS Gram
 //! matrices) are never empty, but a joint step from a metric outside the
