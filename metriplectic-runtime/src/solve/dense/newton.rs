@@ -9,8 +9,6 @@
 //! digit and iterative refinement could not converge, which stalled the
 //! method at a relative gap of a few 1e-8.
 
-use std::cell::Cell;
-
 use nalgebra::{DMatrix, DVector};
 
 use crate::solve::linalg::{gram, Cholesky};
@@ -86,10 +84,6 @@ pub(super) struct Newton<'a> {
     /// D̃ = 4 d₁d₂/(d₁ + d₂), the L1 block's weight in the Schur complement.
     weights: DVector<f64>,
     schur: ScaledCholesky,
-    /// Whether a solve has been checked, and whether the first check
-    /// found the factor's solution accurate without refinement.
-    checked: Cell<bool>,
-    accurate: Cell<bool>,
 }
 
 impl<'a> Newton<'a> {
@@ -114,8 +108,6 @@ impl<'a> Newton<'a> {
             d2,
             weights,
             schur,
-            checked: Cell::new(false),
-            accurate: Cell::new(false),
         })
     }
 
@@ -184,33 +176,29 @@ impl<'a> Newton<'a> {
     /// unreduced system until the residual is small (`REFINEMENT_ABSOLUTE`,
     /// `REFINEMENT_RELATIVE`), while each step at least halves it (a step
     /// that does not improve it is discarded), up to `MAX_REFINEMENT`.
+    /// Every solve is checked: the products the check needs come from the
+    /// solve's own pass over A.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
-        let (mut solution, floor) = self.solve_reduced(rhs, None);
-        if self.accurate.get() {
-            return solution;
-        }
-        let mut residual = rhs.minus(&self.apply(&solution));
+        let (mut solution, mut products, floor) = self.solve_reduced(rhs, None);
+        let mut residual = rhs.minus(&self.apply(&solution, &products));
         let mut size = residual.amax();
         let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * rhs.amax();
-        // Checking costs a pass over A. A factor that needs no refinement
-        // on its first right-hand side needs none on the others (most LP
-        // iterations); one that does is checked on every solve.
-        if !self.checked.replace(true) && size <= enough {
-            self.accurate.set(true);
-        }
         for _ in 0..MAX_REFINEMENT {
             if size <= enough || size.is_nan() {
                 break;
             }
-            let candidate = solution.plus(&self.solve_reduced(&residual, Some(floor)).0);
-            let next = rhs.minus(&self.apply(&candidate));
+            let (correction, change, _) = self.solve_reduced(&residual, Some(floor));
+            let candidate = solution.plus(&correction);
+            // The operator is linear, so the candidate's products are the sum.
+            let candidate_products = products.plus(&change);
+            let next = rhs.minus(&self.apply(&candidate, &candidate_products));
             let next_size = next.amax();
             // A non-finite step is never kept.
             if next_size >= size || next_size.is_nan() {
                 break;
             }
             let halved = next_size < 0.5 * size;
-            (solution, residual, size) = (candidate, next, next_size);
+            (solution, products, residual, size) = (candidate, candidate_products, next, next_size);
             if !halved {
                 break;
             }
@@ -218,10 +206,12 @@ impl<'a> Newton<'a> {
         solution
     }
 
-    /// The unreduced KKT operator applied to (dx, dz̃).
-    fn apply(&self, v: &Kkt) -> Kkt {
+    /// The unreduced KKT operator applied to (dx, dz̃), given the products
+    /// A dy and Aᵀ(dz₂ − dz₁).
+    fn apply(&self, v: &Kkt, products: &Products) -> Kkt {
         let p = self.problem;
-        let (ay, mut y) = p.a.mul_and_tr_mul(&v.y, &(&v.z2 - &v.z1));
+        let ay = &products.ay;
+        let mut y = products.at_z.clone();
         let mut zc = DVector::zeros(0);
         if p.g.nrows() > 0 {
             y += p.side_rows.tr_mul(&self.scaled_g, &v.zc);
@@ -230,18 +220,19 @@ impl<'a> Newton<'a> {
         Kkt {
             y,
             e: -&v.z1 - &v.z2,
-            z1: -&ay - &v.e - v.z1.component_div(&self.d1),
-            z2: &ay - &v.e - v.z2.component_div(&self.d2),
+            z1: -ay - &v.e - v.z1.component_div(&self.d1),
+            z2: ay - &v.e - v.z2.component_div(&self.d2),
             zc,
         }
     }
 
-    /// One solve through the Schur complement on y. The first solve of a
+    /// One solve through the Schur complement on y, with the products
+    /// A dy and Aᵀ(dz₂ − dz₁) of its solution. The first solve of a
     /// right-hand side uses the factor alone (`floor` `None`); its KKT
     /// residual then tells whether anything is left to refine, and each
     /// refinement step solves the Schur system by CG down to `floor`
     /// (`SCHUR_TOLERANCE` times the first right-hand side, returned).
-    fn solve_reduced(&self, b: &Kkt, floor: Option<f64>) -> (Kkt, f64) {
+    fn solve_reduced(&self, b: &Kkt, floor: Option<f64>) -> (Kkt, Products, f64) {
         let p = self.problem;
         let d1b = self.d1.component_mul(&b.z1);
         let d2b = self.d2.component_mul(&b.z2);
@@ -265,12 +256,25 @@ impl<'a> Newton<'a> {
             Some(floor) => (self.solve_schur(&rhs_y, floor), floor),
             None => (self.schur.solve(&rhs_y), SCHUR_TOLERANCE * rhs_y.amax()),
         };
-        let ady = p.a.mul(&dy);
-        let de = (&rhs_e - diff.component_mul(&ady)).component_div(&sum);
-        // dz = D (G dx − bz) on the orthants, with G = [[−A, −I]; [A, −I]],
-        // and ũ = G̃ dy − bz̃ on the side cones.
-        let z1 = self.d1.component_mul(&(-&ady - &de - &b.z1));
-        let z2 = self.d2.component_mul(&(&ady - &de - &b.z2));
+        // Row by row: de from A dy, then dz = D (G dx − bz) on the orthants
+        // with G = [[−A, −I]; [A, −I]]. The same formulas give Aᵀ(dz₂ − dz₁)
+        // in the pass that forms A dy.
+        let orthants = |i: usize, ady: f64| {
+            let de = (rhs_e[i] - diff[i] * ady) / sum[i];
+            let z1 = self.d1[i] * (-ady - de - b.z1[i]);
+            let z2 = self.d2[i] * (ady - de - b.z2[i]);
+            (de, z1, z2)
+        };
+        let (ady, at_z) = p.a.mul_then_tr_mul(&dy, |i, ady| {
+            let (_, z1, z2) = orthants(i, ady);
+            z2 - z1
+        });
+        let r = ady.len();
+        let (mut de, mut z1, mut z2) = (DVector::zeros(r), DVector::zeros(r), DVector::zeros(r));
+        for (i, &value) in ady.iter().enumerate() {
+            (de[i], z1[i], z2[i]) = orthants(i, value);
+        }
+        // ũ = G̃ dy − bz̃ on the side cones.
         let zc = if p.g.nrows() > 0 {
             p.side_rows.mul(&self.scaled_g, &dy) - &b.zc
         } else {
@@ -283,7 +287,23 @@ impl<'a> Newton<'a> {
             z2,
             zc,
         };
-        (solution, floor)
+        (solution, Products { ay: ady, at_z }, floor)
+    }
+}
+
+/// The products with A of a Newton solution (dy, dz): A dy and
+/// Aᵀ(dz₂ − dz₁), the two the KKT operator needs.
+struct Products {
+    ay: DVector<f64>,
+    at_z: DVector<f64>,
+}
+
+impl Products {
+    fn plus(&self, other: &Products) -> Products {
+        Products {
+            ay: &self.ay + &other.ay,
+            at_z: &self.at_z + &other.at_z,
+        }
     }
 }
 
