@@ -72,11 +72,12 @@ pub(crate) fn gram(a: &DMatrix<f64>) -> DMatrix<f64> {
 /// and multiplied, and a few blocks give every core work.
 const ROW_BLOCK: usize = 1024;
 
-/// Rows per block of Aᵀ D A: each block is scaled into one reused buffer
-/// (30 MB at a thousand columns) and multiplied on every core. Longer
-/// blocks than `ROW_BLOCK` give faer's product more work per call: at
-/// p = 923 an entropy solve took 4–5% less time than with 1024 rows, and
-/// 8192 rows were slower again.
+/// Rows per block of a wide Aᵀ D A: each block is scaled into one reused
+/// buffer (30 MB at a thousand columns) and multiplied on every core.
+/// Longer blocks than `ROW_BLOCK` give faer's product more work per call:
+/// at p = 923 an entropy solve took 4–5% less time than with 1024 rows,
+/// and 8192 rows were slower again. Narrow products keep `ROW_BLOCK`
+/// rows (see [`RowMajor::gram_block`]).
 const GRAM_BLOCK: usize = 4096;
 
 /// Rows per slice of the fused pass [`RowMajor::mul_and_tr_mul`]: a slice
@@ -297,18 +298,32 @@ impl RowMajor {
         RowMajor::from_rows(self.rows, width, data)
     }
 
+    /// Rows per block of [`RowMajor::weighted_gram`]: `GRAM_BLOCK` where a
+    /// block of `ROW_BLOCK` rows is already multiplied in parallel, else
+    /// `ROW_BLOCK`. Longer blocks would move narrow products (the paper's
+    /// systems, tens of columns) onto the parallel path, which is slower
+    /// at that size: Linear2d's solver time went from 0.6 to 0.8 s.
+    fn gram_block(&self) -> usize {
+        let work = ROW_BLOCK as f64 * (self.columns * self.columns) as f64 / 2.0;
+        match parallelism(work) {
+            Par::Seq => ROW_BLOCK,
+            _ => GRAM_BLOCK,
+        }
+    }
+
     /// Aᵀ diag(d) A for d ≥ 0, symmetric (both triangles filled): each block
-    /// of `GRAM_BLOCK` rows is scaled by √d into one reused buffer and its Gram product
+    /// of rows ([`RowMajor::gram_block`]) is scaled by √d into one reused buffer and its Gram product
     /// added to the lower triangle, in block order.
     pub(crate) fn weighted_gram(&self, d: &DVector<f64>) -> DMatrix<f64> {
         assert_eq!(d.len(), self.rows, "one weight per row");
         let k = self.columns;
         let mut out = DMatrix::zeros(k, k);
-        let mut buffer = vec![0.0; GRAM_BLOCK.min(self.rows) * k];
-        for (index, block) in self.data.chunks(GRAM_BLOCK * k.max(1)).enumerate() {
+        let block_rows = self.gram_block();
+        let mut buffer = vec![0.0; block_rows.min(self.rows) * k];
+        for (index, block) in self.data.chunks(block_rows * k.max(1)).enumerate() {
             let rows = block.len() / k.max(1);
             let scaled = &mut buffer[..rows * k];
-            let weights = &d.as_slice()[index * GRAM_BLOCK..index * GRAM_BLOCK + rows];
+            let weights = &d.as_slice()[index * block_rows..index * block_rows + rows];
             // Scaling is memory-bound; on one thread it would leave the
             // other cores idle between the products.
             let scale = |((target, row), weight): ((&mut [f64], &[f64]), &f64)| {
