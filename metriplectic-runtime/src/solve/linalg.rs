@@ -80,7 +80,7 @@ const ROW_BLOCK: usize = 1024;
 /// rows (see [`RowMajor::gram_block`]).
 const GRAM_BLOCK: usize = 4096;
 
-/// Rows per slice of the fused pass [`RowMajor::mul_and_tr_mul`]: a slice
+/// Rows per slice of the fused pass [`RowMajor::mul_then_tr_mul`]: a slice
 /// of a thousand columns (256 KB) stays in the core's own cache between
 /// its two uses.
 const FUSED_ROWS: usize = 32;
@@ -244,9 +244,9 @@ impl RowMajor {
             while start < block.nrows() {
                 let rows = FUSED_ROWS.min(block.nrows() - start);
                 let slice = block.subrows(start, rows);
-                let product = &mut product[start..start + rows];
+                let slice_product = &mut product[start..start + rows];
                 faer::linalg::matmul::matmul(
-                    MatMut::from_column_major_slice_mut(product, rows, 1),
+                    MatMut::from_column_major_slice_mut(slice_product, rows, 1),
                     Accum::Replace,
                     slice,
                     v,
@@ -254,7 +254,7 @@ impl RowMajor {
                     Par::Seq,
                 );
                 let weights = &mut weights[..rows];
-                for (j, (w, av)) in weights.iter_mut().zip(product.iter()).enumerate() {
+                for (j, (w, av)) in weights.iter_mut().zip(slice_product.iter()).enumerate() {
                     *w = weight(first + start + j, *av);
                 }
                 faer::linalg::matmul::matmul(
@@ -312,8 +312,9 @@ impl RowMajor {
     }
 
     /// Aᵀ diag(d) A for d ≥ 0, symmetric (both triangles filled): each block
-    /// of rows ([`RowMajor::gram_block`]) is scaled by √d into one reused buffer and its Gram product
-    /// added to the lower triangle, in block order.
+    /// of rows ([`RowMajor::gram_block`]) is scaled by √d into one reused
+    /// buffer and its Gram product added to the lower triangle, in block
+    /// order.
     pub(crate) fn weighted_gram(&self, d: &DVector<f64>) -> DMatrix<f64> {
         assert_eq!(d.len(), self.rows, "one weight per row");
         let k = self.columns;
@@ -547,13 +548,14 @@ mod tests {
             row *= *weight;
         }
         let b = pseudo_random(columns, 3, 9);
+        let mv = &m * &v;
         let column = |v: DVector<f64>| DMatrix::from_column_slice(v.len(), 1, v.as_slice());
         let expected = [
             column(&m * &v),
             column(m.tr_mul(&w)),
             column(&m * &v),
             column(m.tr_mul(&w)),
-            column(m.tr_mul(&DVector::from_fn(rows, |i, _| weight_of(i, (&m * &v)[i])))),
+            column(m.tr_mul(&DVector::from_fn(rows, |i, _| weight_of(i, mv[i])))),
             m.transpose() * &scaled,
             &m * &b,
         ];
