@@ -47,6 +47,21 @@ metriplectic! {
     }
 }
 
+metriplectic! {
+    /// Two coupled oscillators with a quartic spring and a coupled metric
+    /// (true entropy degree 2) with an entropy basis of degree 6.
+    pub struct OversizedPair;
+    state (q1, q2, p1, p2);
+    poisson = [[0, 0, 1, 0], [0, 0, 0, 1], [-1, 0, 0, 0], [0, -1, 0, 0]];
+    hamiltonian = 0.5 * (p1^2 + p2^2) + 0.5 * (q1^2 + 2 * q2^2) + 0.1 * q1^4;
+    entropy degree 6;
+    metric degree 0;
+    reference {
+        entropy = -0.5 * (p1^2 + p2^2) - 0.2 * q1 * q2;
+        metric = [[0.1, 0, 0, 0], [0, 0.1, 0, 0], [0, 0, 0.5, 0.1], [0, 0, 0.1, 0.4]];
+    }
+}
+
 fn data<S: MetriplecticSystem>(count: usize, seed: u64) -> Dataset {
     reference_samples::<S>(count, seed, |rng| {
         (0..S::DIM).map(|_| rng.random_range(-1.5..1.5)).collect()
@@ -91,6 +106,19 @@ fn oversized_duffing_is_identified_with_solved_joint_steps() {
 #[test]
 fn oversized_linear2d_is_identified_with_solved_joint_steps() {
     converges::<OversizedLinear2d>();
+}
+
+/// A known gap, kept as a failing test to fix: near the exact fit (cost
+/// ≤ 2e-3, from iteration 4) the dense method ends 6 of the 9 joint steps
+/// `InsufficientProgress` or `AlmostSolved` (and one metric step
+/// `AlmostSolved`) where Clarabel ends every step `Solved`; the run still
+/// converges, to a held-out error of 2e-10. The rounding error of the
+/// normal equations' product S x is then as large as the y-block residual
+/// refinement has to remove, so refinement stalls; `docs/method.md` §4.
+#[test]
+#[ignore = "known gap: AlmostSolved near the exact fit, see docs/method.md §4"]
+fn oversized_pair_is_identified_with_solved_joint_steps() {
+    converges::<OversizedPair>();
 }
 
 /// The joint step off the truth (the entropy perturbed by N(0, 0.05²), a
