@@ -116,7 +116,7 @@ fn oversized_linear2d_is_identified_with_solved_joint_steps() {
 /// normal equations' product S x is then as large as the y-block residual
 /// refinement has to remove, so refinement stalls; `docs/method.md` §4.
 #[test]
-#[ignore = "known gap: AlmostSolved near the exact fit, see docs/method.md §4"]
+#[ignore = "known gap: joint steps not Solved near the exact fit, see docs/method.md §4"]
 fn oversized_pair_is_identified_with_solved_joint_steps() {
     converges::<OversizedPair>();
 }
