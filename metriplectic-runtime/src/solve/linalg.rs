@@ -549,13 +549,14 @@ mod tests {
         }
         let b = pseudo_random(columns, 3, 9);
         let mv = &m * &v;
-        let column = |v: DVector<f64>| DMatrix::from_column_slice(v.len(), 1, v.as_slice());
+        let mtw = m.tr_mul(&w);
+        let column = |v: &DVector<f64>| DMatrix::from_column_slice(v.len(), 1, v.as_slice());
         let expected = [
-            column(&m * &v),
-            column(m.tr_mul(&w)),
-            column(&m * &v),
-            column(m.tr_mul(&w)),
-            column(m.tr_mul(&DVector::from_fn(rows, |i, _| weight_of(i, mv[i])))),
+            column(&mv),
+            column(&mtw),
+            column(&mv),
+            column(&mtw),
+            column(&m.tr_mul(&DVector::from_fn(rows, |i, _| weight_of(i, mv[i])))),
             m.transpose() * &scaled,
             &m * &b,
         ];
