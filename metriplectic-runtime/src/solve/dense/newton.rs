@@ -8,6 +8,13 @@
 //! ill-conditioned; in the unscaled form −WᵀW dz its residuals lost every
 //! digit and iterative refinement could not converge, which stalled the
 //! method at a relative gap of a few 1e-8.
+//!
+//! Forming the Schur complement squares the condition number of
+//! M = [D̃^½ A; G̃]. Near an exact fit of an over-sized basis that loses
+//! directions refinement needs; those solves are refined again with a
+//! factor from Householder QRs of M itself (`docs/method.md` §4).
+
+use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -35,6 +42,9 @@ const MAX_REFINEMENT: usize = 8;
 /// problem is equilibrated, so these are in units of the data).
 const REFINEMENT_ABSOLUTE: f64 = 1e-12;
 const REFINEMENT_RELATIVE: f64 = 1e-13;
+/// The orthogonal factor takes over when refinement with the formed one
+/// ends above the refinement tolerance plus this much of the right-hand side.
+const ORTHOGONAL_FALLBACK: f64 = 1e-6;
 /// Aᵀ w reads only w's non-zero rows when they are at most one in this many.
 const SPARSE_FRACTION: usize = 16;
 /// Most conjugate-gradient steps per Schur-complement solve.
@@ -84,6 +94,9 @@ pub(super) struct Newton<'a> {
     /// D̃ = 4 d₁d₂/(d₁ + d₂), the L1 block's weight in the Schur complement.
     weights: DVector<f64>,
     schur: ScaledCholesky,
+    /// The factor from a QR of [D̃^½ A; G̃], built on the first solve the
+    /// formed Schur complement's factor cannot refine.
+    orthogonal: OnceLock<Option<ScaledCholesky>>,
 }
 
 impl<'a> Newton<'a> {
@@ -108,6 +121,7 @@ impl<'a> Newton<'a> {
             d2,
             weights,
             schur,
+            orthogonal: OnceLock::new(),
         })
     }
 
@@ -130,16 +144,16 @@ impl<'a> Newton<'a> {
     /// preconditioner it still clusters the spectrum and CG converges in a
     /// few steps. Usually the factor's solution, or one CG step from it,
     /// is already at the product's rounding level.
-    fn solve_schur(&self, b: &DVector<f64>, floor: f64) -> DVector<f64> {
-        let mut x = self.schur.solve(b);
+    fn solve_schur(&self, factor: &ScaledCholesky, b: &DVector<f64>, floor: f64) -> DVector<f64> {
+        let mut x = factor.solve(b);
         let mut r = b - self.schur_product(&x);
         // Below the rounding error of the product S x there is nothing to gain.
-        let floor = floor.max(f64::EPSILON * self.schur.largest * x.amax());
+        let floor = floor.max(f64::EPSILON * factor.largest * x.amax());
         let mut best = (r.amax(), x.clone());
         if best.0 <= floor || best.0.is_nan() {
             return x;
         }
-        let mut z = self.schur.solve(&r);
+        let mut z = factor.solve(&r);
         let mut direction = z.clone();
         let mut rz = r.dot(&z);
         let mut since_best = 0;
@@ -162,7 +176,7 @@ impl<'a> Newton<'a> {
             if size <= floor || size.is_nan() || since_best >= 3 {
                 break;
             }
-            z = self.schur.solve(&r);
+            z = factor.solve(&r);
             let rz_next = r.dot(&z);
             direction = &z + &direction * (rz_next / rz);
             rz = rz_next;
@@ -177,17 +191,56 @@ impl<'a> Newton<'a> {
     /// `REFINEMENT_RELATIVE`), while each step at least halves it (a step
     /// that does not improve it is discarded), up to `MAX_REFINEMENT`.
     /// Every solve is checked: the products the check needs come from the
-    /// solve's own pass over A.
+    /// solve's own pass over A. When refinement with the formed Schur
+    /// complement's factor ends above `ORTHOGONAL_FALLBACK` of the
+    /// right-hand side, it goes on with the orthogonal factor (built once
+    /// per Newton system), and the smaller residual's solution is returned.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
-        let (mut solution, mut products, floor) = self.solve_reduced(rhs, None);
+        let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * rhs.amax();
+        let first = self.solve_reduced(&self.schur, rhs, None);
+        let refined = self.refine(&self.schur, rhs, first, enough);
+        // A Newton direction this close is good enough for the iteration;
+        // the orthogonal factor is for solves the formed factor got wrong.
+        let close = enough + ORTHOGONAL_FALLBACK * rhs.amax();
+        if refined.size <= close || refined.size.is_nan() {
+            return refined.solution;
+        }
+        let Some(orthogonal) = self
+            .orthogonal
+            .get_or_init(|| self.orthogonal_factor())
+            .as_ref()
+        else {
+            return refined.solution;
+        };
+        let start = (
+            refined.solution.clone(),
+            refined.products.clone(),
+            refined.floor,
+        );
+        let again = self.refine(orthogonal, rhs, start, enough);
+        if again.size < refined.size {
+            again.solution
+        } else {
+            refined.solution
+        }
+    }
+
+    /// Iterative refinement from `start` with the Schur solves of `factor`.
+    fn refine(
+        &self,
+        factor: &ScaledCholesky,
+        rhs: &Kkt,
+        start: (Kkt, Products, f64),
+        enough: f64,
+    ) -> Refined {
+        let (mut solution, mut products, floor) = start;
         let mut residual = rhs.minus(&self.apply(&solution, &products));
         let mut size = residual.amax();
-        let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * rhs.amax();
         for _ in 0..MAX_REFINEMENT {
             if size <= enough || size.is_nan() {
                 break;
             }
-            let (correction, change, _) = self.solve_reduced(&residual, Some(floor));
+            let (correction, change, _) = self.solve_reduced(factor, &residual, Some(floor));
             let candidate = solution.plus(&correction);
             // The operator is linear, so the candidate's products are the sum.
             let candidate_products = products.plus(&change);
@@ -203,7 +256,41 @@ impl<'a> Newton<'a> {
                 break;
             }
         }
-        solution
+        Refined {
+            solution,
+            products,
+            floor,
+            size,
+        }
+    }
+
+    /// The Jacobi-scaled factor of S from a QR of [D̃^½ A; G̃] (`None` if
+    /// that is singular).
+    fn orthogonal_factor(&self) -> Option<ScaledCholesky> {
+        let p = self.problem;
+        let scale = &self.schur.scale;
+        let r = self.weights.len();
+        let factor = Cholesky::from_rows(r + self.scaled_g.nrows(), p.a.ncols(), |i, row| {
+            if i < r {
+                let weight = self.weights[i].sqrt();
+                for ((out, value), s) in row.iter_mut().zip(p.a.row(i)).zip(scale.iter()) {
+                    *out = weight * value * s;
+                }
+            } else {
+                for ((out, value), s) in row
+                    .iter_mut()
+                    .zip(self.scaled_g.row(i - r).iter())
+                    .zip(scale.iter())
+                {
+                    *out = value * s;
+                }
+            }
+        })?;
+        Some(ScaledCholesky {
+            factor,
+            scale: scale.clone(),
+            largest: self.schur.largest,
+        })
     }
 
     /// The unreduced KKT operator applied to (dx, dz̃), given the products
@@ -232,7 +319,12 @@ impl<'a> Newton<'a> {
     /// residual then tells whether anything is left to refine, and each
     /// refinement step solves the Schur system by CG down to `floor`
     /// (`SCHUR_TOLERANCE` times the first right-hand side, returned).
-    fn solve_reduced(&self, b: &Kkt, floor: Option<f64>) -> (Kkt, Products, f64) {
+    fn solve_reduced(
+        &self,
+        factor: &ScaledCholesky,
+        b: &Kkt,
+        floor: Option<f64>,
+    ) -> (Kkt, Products, f64) {
         let p = self.problem;
         let d1b = self.d1.component_mul(&b.z1);
         let d2b = self.d2.component_mul(&b.z2);
@@ -253,8 +345,8 @@ impl<'a> Newton<'a> {
             rhs_y += p.side_rows.tr_mul(&self.scaled_g, &b.zc);
         }
         let (dy, floor) = match floor {
-            Some(floor) => (self.solve_schur(&rhs_y, floor), floor),
-            None => (self.schur.solve(&rhs_y), SCHUR_TOLERANCE * rhs_y.amax()),
+            Some(floor) => (self.solve_schur(factor, &rhs_y, floor), floor),
+            None => (factor.solve(&rhs_y), SCHUR_TOLERANCE * rhs_y.amax()),
         };
         // Row by row: de from A dy, then dz = D (G dx − bz) on the orthants
         // with G = [[−A, −I]; [A, −I]]. The same formulas give Aᵀ(dz₂ − dz₁)
@@ -291,8 +383,18 @@ impl<'a> Newton<'a> {
     }
 }
 
+/// The end of iterative refinement: the solution, its products, the Schur
+/// solves' floor and the KKT residual's largest entry.
+struct Refined {
+    solution: Kkt,
+    products: Products,
+    floor: f64,
+    size: f64,
+}
+
 /// The products with A of a Newton solution (dy, dz): A dy and
 /// Aᵀ(dz₂ − dz₁), the two the KKT operator needs.
+#[derive(Clone)]
 struct Products {
     ay: DVector<f64>,
     at_z: DVector<f64>,
