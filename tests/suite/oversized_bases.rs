@@ -119,6 +119,47 @@ fn oversized_pair_is_identified_with_solved_joint_steps() {
     converges::<OversizedPair>();
 }
 
+/// Exactly collinear features: every state on the unit sphere of R⁴, so
+/// q₁² + q₂² + p₁² + p₂² − 1 vanishes on the data and the degree-6 basis
+/// has columns that are dependent there (the data cannot tell S from
+/// S + f·(|x|² − 1)). No step of any kind may end infeasible or fail,
+/// every joint step ends usable, and the model fits held-out states on the
+/// same sphere. Measured: 5 iterations, held-out error 5–6e-10, one joint
+/// and one metric step `AlmostSolved` (a KKT residual floor of ~1e-7 from
+/// rounding D̃ ∘ (A v) on those columns, with D̃ up to 1e12); Clarabel
+/// ends none of the 10 entropy steps of the same run Solved (7 with a
+/// numerical error).
+#[test]
+fn collinear_features_on_a_sphere_give_no_failed_step() {
+    let on_sphere = |count, seed| {
+        reference_samples::<OversizedPair>(count, seed, |rng| {
+            let v: Vec<f64> = (0..4).map(|_| rng.random_range(-1.5..1.5)).collect();
+            let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            v.iter().map(|a| a / norm).collect()
+        })
+    };
+    let (train, held_out) = (on_sphere(800, 1), on_sphere(400, 2));
+    let config = IdentifyConfig {
+        max_iterations: 40,
+        ..IdentifyConfig::default()
+    };
+    let run = identify::<OversizedPair>(&train, &config).unwrap();
+    let error = relative_error(&run.model, &held_out);
+    let statuses = run.history.status_counts();
+    let joint = run.history.joint_status_counts();
+    eprintln!("on the sphere: held-out error {error:.2e}, joint {joint:?}, (metric, entropy) {statuses:?}");
+    assert!(!joint.is_empty(), "the scheme takes joint steps");
+    assert!(
+        joint.iter().all(|(status, _)| status.is_usable()),
+        "{joint:?}"
+    );
+    assert!(
+        statuses.iter().all(|(status, _, _)| status.is_usable()),
+        "{statuses:?}"
+    );
+    assert!(error <= 1e-8, "held-out error {error:e}");
+}
+
 /// The joint step off the truth (the entropy perturbed by N(0, 0.05²), a
 /// trust region too small to reach it):
 /// both backends end Solved at the same predicted cost.
