@@ -425,7 +425,12 @@ impl Cholesky {
         n: usize,
         fill_row: impl Fn(usize, &mut [f64]),
     ) -> Option<Self> {
-        let block = (QR_BLOCK * n).max(1);
+        if n == 0 {
+            return Some(Self {
+                l: DMatrix::zeros(0, 0),
+            });
+        }
+        let block = QR_BLOCK * n;
         let mut r = DMatrix::<f64>::zeros(n, n);
         let mut row = vec![0.0; n];
         let mut start = 0;
@@ -596,6 +601,9 @@ mod tests {
             (smallest / 1e-10 - 1.0).abs() < 1e-4,
             "smallest singular value {smallest:e}, want 1e-10"
         );
+        // No columns: an empty factor; no rows: singular.
+        assert_eq!(Cholesky::from_rows(5, 0, |_, _| ()).unwrap().l.len(), 0);
+        assert!(Cholesky::from_rows(0, 3, |_, _| ()).is_none());
     }
 
     /// A pseudo-random r × k matrix (a fixed linear congruential sequence).
