@@ -68,27 +68,43 @@ fn data<S: MetriplecticSystem>(count: usize, seed: u64) -> Dataset {
     })
 }
 
-/// Identification from the default start: every joint step ends Solved and
-/// the held-out error reaches 1e-8.
-fn converges<S: MetriplecticSystem>() {
-    let train = data::<S>(800, 1);
-    let held_out = data::<S>(400, 2);
+/// Statuses of one identification run from the default start (40
+/// iterations at most) and its held-out error.
+struct Outcome {
+    joint: Vec<(SolveStatus, usize)>,
+    statuses: Vec<(SolveStatus, usize, usize)>,
+    error: f64,
+}
+
+fn identify_from<S: MetriplecticSystem>(train: &Dataset, held_out: &Dataset) -> Outcome {
     let config = IdentifyConfig {
         max_iterations: 40,
         ..IdentifyConfig::default()
     };
-    let run = identify::<S>(&train, &config).unwrap();
-    let error = relative_error(&run.model, &held_out);
-    let joint = run.history.joint_status_counts();
+    let run = identify::<S>(train, &config).unwrap();
+    let outcome = Outcome {
+        joint: run.history.joint_status_counts(),
+        statuses: run.history.status_counts(),
+        error: relative_error(&run.model, held_out),
+    };
     eprintln!(
-        "{}: {} iterations ({:?}), held-out error {error:.2e}, joint steps {joint:?}, \
+        "{}: {} iterations ({:?}), held-out error {:.2e}, joint steps {:?}, \
          (metric, entropy) {:?}",
         S::NAME,
         run.history.iterations.len(),
         run.stop_reason,
-        run.history.status_counts()
+        outcome.error,
+        outcome.joint,
+        outcome.statuses
     );
-    assert!(!joint.is_empty(), "the scheme takes joint steps");
+    assert!(!outcome.joint.is_empty(), "the scheme takes joint steps");
+    outcome
+}
+
+/// Identification from the default start: every joint step ends Solved and
+/// the held-out error reaches 1e-8.
+fn converges<S: MetriplecticSystem>() {
+    let Outcome { joint, error, .. } = identify_from::<S>(&data::<S>(800, 1), &data::<S>(400, 2));
     assert!(
         joint
             .iter()
@@ -138,17 +154,11 @@ fn collinear_features_on_a_sphere_give_no_failed_step() {
             v.iter().map(|a| a / norm).collect()
         })
     };
-    let (train, held_out) = (on_sphere(800, 1), on_sphere(400, 2));
-    let config = IdentifyConfig {
-        max_iterations: 40,
-        ..IdentifyConfig::default()
-    };
-    let run = identify::<OversizedPair>(&train, &config).unwrap();
-    let error = relative_error(&run.model, &held_out);
-    let statuses = run.history.status_counts();
-    let joint = run.history.joint_status_counts();
-    eprintln!("on the sphere: held-out error {error:.2e}, joint {joint:?}, (metric, entropy) {statuses:?}");
-    assert!(!joint.is_empty(), "the scheme takes joint steps");
+    let Outcome {
+        joint,
+        statuses,
+        error,
+    } = identify_from::<OversizedPair>(&on_sphere(800, 1), &on_sphere(400, 2));
     assert!(
         joint.iter().all(|(status, _)| status.is_usable()),
         "{joint:?}"
