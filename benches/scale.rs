@@ -18,8 +18,8 @@
 //!   bits on one thread as on all. Each row also counts the residuals the
 //!   optimum fits exactly (below 1e-9; a vertex of the L1 problem has about
 //!   p) and nearly (in [1e-9, 1e-5)): the interior-point method must tell
-//!   the two apart, and the nearly fitted ones are what its iteration count
-//!   grows with.
+//!   the two apart, and in these runs its iteration count follows the
+//!   nearly fitted ones.
 //! * The degree-6 series again with Gaussian noise (standard deviation
 //!   1e-3) on ẋ, as measured data have.
 //!
