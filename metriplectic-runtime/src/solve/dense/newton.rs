@@ -196,12 +196,13 @@ impl<'a> Newton<'a> {
     /// right-hand side, it goes on with the orthogonal factor (built once
     /// per Newton system), and the smaller residual's solution is returned.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
-        let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * rhs.amax();
+        let scale = rhs.amax();
+        let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * scale;
         let first = self.solve_reduced(&self.schur, rhs, None);
         let refined = self.refine(&self.schur, rhs, first, enough);
         // A Newton direction this close is good enough for the iteration;
         // the orthogonal factor is for solves the formed factor got wrong.
-        let close = enough + ORTHOGONAL_FALLBACK * rhs.amax();
+        let close = enough + ORTHOGONAL_FALLBACK * scale;
         if refined.size <= close || refined.size.is_nan() {
             return refined.solution;
         }
