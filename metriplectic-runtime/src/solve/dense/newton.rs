@@ -125,10 +125,11 @@ impl<'a> Newton<'a> {
         })
     }
 
-    /// S v = Aᵀ D̃ A v + G̃ᵀ G̃ v, without forming S.
+    /// S v = Aᵀ D̃ A v + G̃ᵀ G̃ v, without forming S; A is read once, each
+    /// slice multiplied by v and back while it is in the cache.
     fn schur_product(&self, v: &DVector<f64>) -> DVector<f64> {
         let p = self.problem;
-        let mut out = p.a.tr_mul(&p.a.mul(v).component_mul(&self.weights));
+        let (_, mut out) = p.a.mul_then_tr_mul(v, |i, av| self.weights[i] * av);
         if self.scaled_g.nrows() > 0 {
             let rows = &self.problem.side_rows;
             out += rows.tr_mul(&self.scaled_g, &rows.mul(&self.scaled_g, v));
