@@ -120,6 +120,10 @@ impl RowMajor {
         Self::from_rows(rows, columns, data)
     }
 
+    pub(crate) fn nrows(&self) -> usize {
+        self.rows
+    }
+
     pub(crate) fn ncols(&self) -> usize {
         self.columns
     }
@@ -524,15 +528,15 @@ pub(crate) fn symmetric_eigenvalues(m: &DMatrix<f64>) -> Option<Vec<f64>> {
     values.iter().all(|v| v.is_finite()).then_some(values)
 }
 
-/// U, the singular values (descending) and V of a square matrix; `None` on
-/// failure.
+/// The full SVD of an m × n matrix: U (m × m), the min(m, n) singular
+/// values (descending) and V (n × n); `None` on failure.
 pub(crate) fn svd(m: &DMatrix<f64>) -> Option<(DMatrix<f64>, Vec<f64>, DMatrix<f64>)> {
-    let n = m.nrows();
+    let (rows, columns) = m.shape();
     let svd = view(m).svd().ok()?;
     let (u, s, v) = (svd.U(), svd.S(), svd.V());
-    let values: Vec<f64> = (0..n).map(|i| s[i]).collect();
-    let u = DMatrix::from_fn(n, n, |i, j| u[(i, j)]);
-    let v = DMatrix::from_fn(n, n, |i, j| v[(i, j)]);
+    let values: Vec<f64> = (0..rows.min(columns)).map(|i| s[i]).collect();
+    let u = DMatrix::from_fn(rows, rows, |i, j| u[(i, j)]);
+    let v = DMatrix::from_fn(columns, columns, |i, j| v[(i, j)]);
     let finite = values
         .iter()
         .chain(u.iter())
@@ -710,5 +714,12 @@ mod tests {
         let back = u * DMatrix::from_diagonal(&DVector::from_vec(s)) * v.transpose();
         assert!((back - &m).amax() < 1e-14);
         assert!((singular_values(&m).unwrap()[0] - 3.0).abs() < 1e-14);
+        // A wide matrix: U is 2 × 2, V is 3 × 3.
+        let wide = DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 2.0, 0.0, 3.0, 0.0]);
+        let (u, s, v) = svd(&wide).unwrap();
+        assert_eq!((u.shape(), s.len(), v.shape()), ((2, 2), 2, (3, 3)));
+        let mut sigma = DMatrix::zeros(2, 3);
+        sigma.set_partial_diagonal(s.into_iter());
+        assert!((u * sigma * v.transpose() - &wide).amax() < 1e-14);
     }
 }

@@ -163,7 +163,7 @@ pub(crate) fn solve(problem: &L1Problem, settings: &SolverSettings) -> Result<L1
     let (point, status, iterations) = iteration::iterate(&reduced, settings);
     let solve_seconds = start.elapsed().as_secs_f64();
 
-    let x = elimination.c0.clone() + &elimination.basis * &point.y;
+    let x = elimination.expand(&point.y);
     let mut slacks: Vec<Vec<f64>> = problem
         .constraints
         .iter()
@@ -248,27 +248,20 @@ fn split_constraints(problem: &L1Problem) -> Split {
 fn reduce(regression: Regression, split: Split, elimination: &Elimination, weight: f64) -> Reduced {
     let width = regression.width;
     let r = regression.len();
-    let k = elimination.basis.ncols();
+    let k = elimination.dimension();
     let a_full = RowMajor::from_rows(r, width, regression.rows);
     let c0 = elimination.c0.rows(0, width).into_owned();
     let t = DVector::from_vec(regression.target) - a_full.mul(&c0);
-    let a = if elimination.identity && k == width {
+    let a = if elimination.is_identity() && k == width {
         a_full
-    } else if elimination.identity {
-        // Variables the regression does not read get zero columns.
-        let mut rows = vec![0.0; r * k];
-        for (i, row) in rows.chunks_exact_mut(k.max(1)).enumerate().take(r) {
-            row[..width].copy_from_slice(a_full.row(i));
-        }
-        RowMajor::from_rows(r, k, rows)
     } else {
-        a_full.mul_matrix(&elimination.basis.rows(0, width).into_owned())
+        reduce_regression(&a_full, elimination)
     };
     let h = &split.h - &split.g * &elimination.c0;
-    let g = if elimination.identity {
+    let g = if elimination.is_identity() {
         split.g
     } else {
-        &split.g * &elimination.basis
+        elimination.reduce_columns(&split.g)
     };
     let side_rows = SideRows::new(&g, &split.segments);
     Reduced {
@@ -280,6 +273,43 @@ fn reduce(regression: Regression, split: Split, elimination: &Elimination, weigh
         side_rows,
         weight,
     }
+}
+
+/// A Z for the regression block (whose width may be below the number of
+/// variables: the variables it does not read have zero columns): its free
+/// columns copied, its constrained ones times the null-space basis.
+fn reduce_regression(a: &RowMajor, elimination: &Elimination) -> RowMajor {
+    let (r, width, k) = (a.nrows(), a.ncols(), elimination.dimension());
+    let free = elimination.free.len();
+    let read: Vec<(usize, usize)> = elimination
+        .constrained
+        .iter()
+        .enumerate()
+        .filter(|&(_, &j)| j < width)
+        .map(|(row, &j)| (row, j))
+        .collect();
+    let mut rows = vec![0.0; r * k];
+    for (i, row) in rows.chunks_exact_mut(k.max(1)).enumerate().take(r) {
+        let source = a.row(i);
+        for (target, &j) in row.iter_mut().zip(&elimination.free) {
+            if j < width {
+                *target = source[j];
+            }
+        }
+    }
+    if !read.is_empty() && free < k {
+        let columns: Vec<f64> = (0..r)
+            .flat_map(|i| read.iter().map(move |&(_, j)| a.row(i)[j]))
+            .collect();
+        let null = elimination
+            .null
+            .select_rows(read.iter().map(|(row, _)| row));
+        let product = RowMajor::from_rows(r, read.len(), columns).mul_matrix(&null);
+        for (i, row) in rows.chunks_exact_mut(k).enumerate() {
+            row[free..].copy_from_slice(product.row(i));
+        }
+    }
+    RowMajor::from_rows(r, k, rows)
 }
 
 #[cfg(test)]
