@@ -22,8 +22,13 @@
 //!   nearly fitted ones.
 //! * The degree-6 series again with Gaussian noise (standard deviation
 //!   1e-3) on ẋ, as measured data have.
+//! * Whole identifications (`identify` with the default configuration) on
+//!   the same exact samples, q = 2000…16000 at degree 4 and 2000…8000 at
+//!   degree 6: what a user waits for, including the start (an entropy
+//!   search at the identity metric, the first series' problem), the
+//!   metric, entropy and joint steps, and the final checks.
 //!
-//! `cargo bench --bench scale` (about 8 min on 2 cores); `-- --quick` stops
+//! `cargo bench --bench scale` (about 15 min on 2 cores); `-- --quick` stops
 //! at q = 4000; `-- --peak` runs only the degree-6 solve at q = 16000 and
 //! prints the process's peak resident memory.
 
@@ -36,7 +41,7 @@ use faer::linalg::matmul::triangular::{matmul, BlockStructure};
 use faer::{Accum, MatMut, MatRef, Par};
 use metriplectic::systems::reference_samples;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{entropy_search, SearchOptions};
+use metriplectic_runtime::{entropy_search, SearchOptions, SearchReport};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -333,6 +338,66 @@ fn q_series<S: MetriplecticSystem>(qs: &[usize], noise: f64) -> Vec<(usize, Solv
     rows
 }
 
+/// Whole identifications on exact samples: one row per q (alternation
+/// iterations, recorded solves, their IPM iterations, wall time, the time
+/// inside the recorded solves, the held-out error against the truth), and
+/// the wall time's growth in q.
+fn identification_series<S: MetriplecticSystem>(qs: &[usize]) {
+    let truth = Model::<S>::reference().expect("the system declares its truth");
+    let held_out = reference_samples::<S>(500, 77, |rng| {
+        (0..6).map(|_| rng.random_range(-1.2..1.2)).collect()
+    });
+    let mut walls = Vec::new();
+    for &q in qs {
+        let case = Case::<S>::new(q);
+        let start = Instant::now();
+        let fit =
+            identify::<S>(&case.data, &IdentifyConfig::default()).expect("identification runs");
+        let wall = start.elapsed().as_secs_f64();
+        let steps: Vec<&SearchReport> = fit
+            .history
+            .iterations
+            .iter()
+            .flat_map(|r| {
+                [
+                    Some(&r.metric),
+                    Some(&r.entropy),
+                    r.joint.as_ref().map(|j| &j.step),
+                ]
+                .into_iter()
+                .flatten()
+                .map(|step| &step.report)
+            })
+            .collect();
+        let ipm: u32 = steps.iter().map(|r| r.iterations).sum();
+        let inside: f64 = steps
+            .iter()
+            .map(|r| r.solver_seconds + r.assembly_seconds)
+            .sum();
+        let error = fit
+            .model
+            .compare(&truth, &held_out)
+            .expect("comparable models")
+            .relative_error;
+        println!(
+            "| {} | {q} | {:?} | {} | {} | {ipm} | {wall:.1} | {inside:.1} | {:.1} | {error:.1e} |",
+            S::entropy_coefficient_count(),
+            fit.stop_reason,
+            fit.history.iterations.len(),
+            steps.len(),
+            wall - inside,
+        );
+        walls.push((q as f64, wall));
+    }
+    println!(
+        "\np = {}: wall ∝ q^{:.2} (q = {}…{})\n",
+        S::entropy_coefficient_count(),
+        log_log_slope(&walls),
+        qs[0],
+        qs[qs.len() - 1]
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
@@ -449,4 +514,16 @@ fn main() {
             if same { "yes" } else { "no" },
         );
     }
+
+    println!("\n### Whole identifications (default configuration, exact samples)\n");
+    println!(
+        "| p | q | stop | iterations | solves | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    identification_series::<ChainDegree4>(qs);
+    identification_series::<ChainDegree6>(if quick {
+        &[2000, 4000]
+    } else {
+        &[2000, 4000, 8000]
+    });
 }
