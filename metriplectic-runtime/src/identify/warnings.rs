@@ -2,7 +2,6 @@
 //! instead of silence when the samples are too few or too alike for the
 //! coefficients sought.
 
-use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 use super::config::IdentifyConfig;
@@ -10,13 +9,12 @@ use super::search::{entropy_regression, metric_regression};
 use crate::data::IdentificationData;
 use crate::error::Result;
 use crate::model::Model;
+use crate::solve::linalg::{singular_values, triangular_factor};
 use crate::solve::Regression;
 use crate::system::MetriplecticSystem;
 
 /// Singular values below this fraction of the largest count as zero.
 const RANK_TOLERANCE: f64 = 1e-12;
-/// Largest rows × columns² for which the rank is computed (an SVD).
-const RANK_WORK_LIMIT: f64 = 2e9;
 
 /// A coefficient block of a model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -120,20 +118,23 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     Ok(warnings)
 }
 
-/// Numerical rank of the regression's `columns`, or `None` when the SVD
-/// would cost more than the check is worth.
+/// Numerical rank of the regression's `columns`: the singular values of
+/// the triangular factor R with RᵀR = AᵀA, formed from blocks of rows, are
+/// A's own, so the work is linear in the number of samples (a direct SVD
+/// of A was skipped above 2·10⁹ rows × columns², leaving large runs
+/// unchecked). `None` if the SVD fails.
 fn numerical_rank(regression: &Regression, columns: &[usize]) -> Option<usize> {
-    let rows = regression.len();
     let k = columns.len();
     if k == 0 {
         return Some(0);
     }
-    if rows as f64 * (k * k) as f64 > RANK_WORK_LIMIT {
-        return None;
-    }
     let width = regression.width;
-    let matrix = DMatrix::from_fn(rows, k, |i, j| regression.rows[i * width + columns[j]]);
-    let singular = crate::solve::linalg::singular_values(&matrix)?;
+    let r = triangular_factor(regression.len(), k, |i, row| {
+        for (target, &j) in row.iter_mut().zip(columns) {
+            *target = regression.rows[i * width + j];
+        }
+    });
+    let singular = singular_values(&r)?;
     let largest = singular.first().copied().unwrap_or(0.0);
     if largest <= 0.0 {
         return Some(0);
@@ -144,4 +145,40 @@ fn numerical_rank(regression: &Regression, columns: &[usize]) -> Option<usize> {
             .filter(|&&s| s > RANK_TOLERANCE * largest)
             .count(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Above 2·10⁹ rows × columns² (where a direct SVD used to be skipped,
+    /// leaving large runs unchecked) the rank is still computed: a column
+    /// that is the sum of two others costs one.
+    #[test]
+    fn rank_of_a_large_regression_counts_a_dependent_column() {
+        let (rows, width) = (20_000, 320);
+        let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let mut data = Vec::with_capacity(rows * width);
+        for _ in 0..rows {
+            let row: Vec<f64> = (0..width - 1).map(|_| next()).collect();
+            let dependent = row[0] + row[1];
+            data.extend(row);
+            data.push(dependent);
+        }
+        let regression = Regression {
+            width,
+            rows: data,
+            target: vec![0.0; rows],
+        };
+        let all: Vec<usize> = (0..width).collect();
+        assert!(rows as f64 * (width * width) as f64 > 2e9);
+        assert_eq!(numerical_rank(&regression, &all), Some(width - 1));
+        assert_eq!(numerical_rank(&regression, &all[2..]), Some(width - 2));
+    }
 }

@@ -417,42 +417,17 @@ impl Cholesky {
     }
 
     /// The factor of MᵀM for the `rows` × `n` matrix M whose row i
-    /// `fill_row(i, row)` writes, from Householder QRs: the Gram product is
-    /// never formed, so the factor keeps the singular values of M down to
-    /// ε‖M‖, where a Cholesky of the formed MᵀM loses those below √ε‖M‖.
-    /// M is taken `QR_BLOCK` · n rows at a time, each QR on the previous
-    /// R stacked over the new rows, so the memory is that of a few n × n
-    /// matrices whatever the number of rows. `None` if a diagonal entry of
-    /// R is zero or any entry is not finite.
+    /// `fill_row(i, row)` writes, L = Rᵀ from [`triangular_factor`]: the
+    /// Gram product is never formed, so the factor keeps the singular
+    /// values of M down to ε‖M‖, where a Cholesky of the formed MᵀM loses
+    /// those below √ε‖M‖. `None` if a diagonal entry of R is zero or any
+    /// entry is not finite.
     pub(crate) fn from_rows(
         rows: usize,
         n: usize,
         fill_row: impl Fn(usize, &mut [f64]),
     ) -> Option<Self> {
-        if n == 0 {
-            return Some(Self {
-                l: DMatrix::zeros(0, 0),
-            });
-        }
-        let block = QR_BLOCK * n;
-        let mut r = DMatrix::<f64>::zeros(n, n);
-        let mut row = vec![0.0; n];
-        let mut start = 0;
-        while start < rows {
-            let end = (start + block).min(rows);
-            let mut stacked = DMatrix::<f64>::zeros(n + end - start, n);
-            stacked.view_mut((0, 0), (n, n)).copy_from(&r);
-            for i in start..end {
-                fill_row(i, &mut row);
-                for (j, value) in row.iter().enumerate() {
-                    stacked[(n + i - start, j)] = *value;
-                }
-            }
-            householder_qr_in_place(&mut stacked);
-            r = DMatrix::from_fn(n, n, |i, j| if i <= j { stacked[(i, j)] } else { 0.0 });
-            start = end;
-        }
-        let l = r.transpose();
+        let l = triangular_factor(rows, n, fill_row).transpose();
         let regular = (0..n).all(|i| l[(i, i)] != 0.0) && l.iter().all(|v| v.is_finite());
         regular.then_some(Self { l })
     }
@@ -508,6 +483,41 @@ fn householder_qr_in_place(m: &mut DMatrix<f64>) {
         MemStack::new(&mut memory),
         Default::default(),
     );
+}
+
+/// R (n × n, upper triangular) with RᵀR = MᵀM for the `rows` × `n` matrix M
+/// whose row i `fill_row(i, row)` writes: Householder QRs of `QR_BLOCK` · n
+/// rows at a time, each on the previous R stacked over the new rows, so the
+/// memory is a few n × n matrices whatever the number of rows and the
+/// work is linear in it. R has M's singular values down to ε‖M‖ (MᵀM
+/// formed would lose those below √ε‖M‖).
+pub(crate) fn triangular_factor(
+    rows: usize,
+    n: usize,
+    fill_row: impl Fn(usize, &mut [f64]),
+) -> DMatrix<f64> {
+    let mut r = DMatrix::<f64>::zeros(n, n);
+    if n == 0 {
+        return r;
+    }
+    let block = QR_BLOCK * n;
+    let mut row = vec![0.0; n];
+    let mut start = 0;
+    while start < rows {
+        let end = (start + block).min(rows);
+        let mut stacked = DMatrix::<f64>::zeros(n + end - start, n);
+        stacked.view_mut((0, 0), (n, n)).copy_from(&r);
+        for i in start..end {
+            fill_row(i, &mut row);
+            for (j, value) in row.iter().enumerate() {
+                stacked[(n + i - start, j)] = *value;
+            }
+        }
+        householder_qr_in_place(&mut stacked);
+        r = DMatrix::from_fn(n, n, |i, j| if i <= j { stacked[(i, j)] } else { 0.0 });
+        start = end;
+    }
+    r
 }
 
 /// Eigenvalues (ascending) and eigenvectors (columns) of a symmetric matrix;
