@@ -460,24 +460,28 @@ fn data_states(data: &impl IdentificationData) -> Vec<&[f64]> {
 }
 
 /// An orthonormal basis (columns) of the vectors of length `k` orthogonal
-/// to every row of `rows`: the right singular vectors of Σ g gᵀ beyond its
-/// rank (the identity without rows).
+/// to every row of `rows`: the right singular vectors of the stacked unit
+/// rows beyond their rank (the identity without rows). The SVD is of the
+/// rows themselves, not of Σ g gᵀ: that k × k matrix squares the condition
+/// number, and with few rows among many unknowns (most of it zero) its
+/// decomposition took seconds where the rows' takes milliseconds.
 fn orthogonal_complement(rows: &[Vec<f64>], k: usize) -> Result<DMatrix<f64>> {
-    if rows.is_empty() {
+    let units: Vec<Vec<f64>> = rows
+        .iter()
+        .filter_map(|g| {
+            let size = norm(g);
+            (size > 0.0).then(|| g.iter().map(|v| v / size).collect())
+        })
+        .collect();
+    if units.is_empty() {
         return Ok(DMatrix::identity(k, k));
     }
-    let mut gram = DMatrix::<f64>::zeros(k, k);
-    for g in rows {
-        let size = norm(g);
-        if size > 0.0 {
-            let unit = nalgebra::DVector::from_iterator(k, g.iter().map(|v| v / size));
-            gram += &unit * unit.transpose();
-        }
-    }
-    let (_, singular, v) = crate::solve::linalg::svd(&gram)
+    let stacked = DMatrix::from_fn(units.len(), k, |i, j| units[i][j]);
+    let (_, singular, v) = crate::solve::linalg::svd(&stacked)
         .ok_or_else(|| invalid("identifiability", "the singular value decomposition failed"))?;
     let top = singular.first().copied().unwrap_or(0.0);
-    let rank = singular.iter().filter(|&&s| s > 1e-10 * top).count();
+    // σ ≤ 1e-5 σ_max counts as zero (1e-10 on the eigenvalues of Σ g gᵀ).
+    let rank = singular.iter().filter(|&&s| s > 1e-5 * top).count();
     Ok(DMatrix::from_fn(k, k - rank, |a, b| v[(a, rank + b)]))
 }
 
@@ -535,6 +539,33 @@ mod tests {
         assert!((gram - DMatrix::identity(2, 2)).norm() < 1e-14);
         let along = nalgebra::DVector::from_vec(rows[0].clone()).transpose() * &basis;
         assert!(along.norm() < 1e-14);
+    }
+
+    /// Few rows among many unknowns, most columns zero (as the fixed
+    /// constraints of a large system are): the complement has every other
+    /// direction, and the free unknowns' unit vectors lie in it.
+    #[test]
+    fn the_complement_of_a_few_rows_among_many_unknowns() {
+        let k = 900;
+        let rows: Vec<Vec<f64>> = (0..3)
+            .map(|i| {
+                (0..k)
+                    .map(|j| if j < 5 { (i + j) as f64 } else { 0.0 })
+                    .collect()
+            })
+            .collect();
+        let basis = orthogonal_complement(&rows, k).unwrap();
+        // The three rows span two directions ((i + j) is affine in i).
+        assert_eq!(basis.ncols(), k - 2);
+        let gram = basis.transpose() * &basis;
+        assert!((gram - DMatrix::identity(k - 2, k - 2)).amax() < 1e-13);
+        for row in &rows {
+            let along = nalgebra::DVector::from_vec(row.clone()).transpose() * &basis;
+            assert!(along.amax() < 1e-13);
+        }
+        // e₁₀ (an unknown no row reads) is kept whole by the projection.
+        let e = basis.row(10);
+        assert!((e.norm() - 1.0).abs() < 1e-13);
     }
 
     #[test]
