@@ -118,11 +118,10 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     Ok(warnings)
 }
 
-/// Numerical rank of the regression's `columns`: the singular values of
-/// the triangular factor R with RᵀR = AᵀA, formed from blocks of rows, are
-/// A's own, so the work is linear in the number of samples (a direct SVD
-/// of A was skipped above 2·10⁹ rows × columns², leaving large runs
-/// unchecked). `None` if the SVD fails.
+/// Numerical rank of the regression's `columns`, from the singular values
+/// of the triangular factor R with RᵀR = AᵀA formed from blocks of rows
+/// (A's own): the work is linear in the number of samples, so every run is
+/// checked, however large. `None` if the SVD fails.
 fn numerical_rank(regression: &Regression, columns: &[usize]) -> Option<usize> {
     let k = columns.len();
     if k == 0 {

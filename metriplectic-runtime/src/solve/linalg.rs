@@ -120,10 +120,12 @@ impl RowMajor {
         Self::from_rows(rows, columns, data)
     }
 
+    /// Number of rows.
     pub(crate) fn nrows(&self) -> usize {
         self.rows
     }
 
+    /// Number of columns.
     pub(crate) fn ncols(&self) -> usize {
         self.columns
     }

@@ -9,9 +9,9 @@
 //! keeps the problem's sparsity (a box on a free coefficient stays one
 //! non-zero per row), A Z is a copy of A's free columns plus a narrow
 //! product, and the factorisation is as small as the equalities. An
-//! eigendecomposition of the whole EᵀE, as before, squared E's condition
-//! number and failed outright on a joint step at q = 4000 (986 columns,
-//! 923 of them zero).
+//! eigendecomposition of the whole EᵀE would square E's condition number,
+//! and faer's did not converge on a joint step's (986 columns, 923 of them
+//! zero; `docs/method.md` §4, item 6).
 
 use nalgebra::{DMatrix, DVector};
 
@@ -26,6 +26,7 @@ const CONSISTENCY_TOLERANCE: f64 = 1e-9;
 /// c = c₀ + Z y, with y = (c restricted to the free variables, coordinates
 /// of the null space on the constrained ones).
 pub(super) struct Elimination {
+    /// The least-norm solution of E c = f (zero on the free variables).
     pub c0: DVector<f64>,
     /// The variables no equality reads, ascending: y's first coordinates.
     pub free: Vec<usize>,
