@@ -24,6 +24,7 @@ use crate::identify::search::{entropy_regression, metric_regression};
 use crate::identify::SearchOptions;
 use crate::model::classical::{self, Equalities};
 use crate::model::{polynomial, Model};
+use crate::solve::linalg::{least_squares, triangular_factor_by_blocks};
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
 /// Options of [`identifiability`].
@@ -148,9 +149,6 @@ impl std::fmt::Display for Identifiability {
     }
 }
 
-/// Rows of the Jacobian are reduced to a triangular factor this many at a time.
-const CHUNK_ROWS: usize = 2048;
-
 /// The identifiability report of `model` on `data`: the singular values of
 /// the exact Jacobian of the stacked vector field with respect to the free
 /// coefficients (ψ, θ), its flat directions in readable form, and whether
@@ -240,36 +238,21 @@ pub fn identifiability<S: MetriplecticSystem>(
     }
     let basis = orthogonal_complement(&fixed, columns)?;
 
-    // R of the QR factorisation of J D⁻¹ B, a chunk of rows at a time.
+    // R of the QR factorisation of J D⁻¹ B, streamed by blocks of rows (a
+    // square factor, with zero rows when there are fewer equations than
+    // unknowns).
     let width = basis.ncols();
-    let mut r = DMatrix::<f64>::zeros(0, width);
-    let mut start = 0;
-    while start < rows {
-        let end = (start + CHUNK_ROWS).min(rows);
-        let chunk =
-            DMatrix::from_fn(end - start, columns, |i, c| column(start + i, c) / scale[c]) * &basis;
-        let stacked = DMatrix::from_fn(r.nrows() + chunk.nrows(), width, |i, c| {
-            if i < r.nrows() {
-                r[(i, c)]
-            } else {
-                chunk[(i - r.nrows(), c)]
-            }
+    let reduced = !basis.is_identity(0.0);
+    let square = triangular_factor_by_blocks(rows, width, |first, mut block| {
+        let scaled = DMatrix::from_fn(block.nrows(), columns, |i, c| {
+            column(first + i, c) / scale[c]
         });
-        r = stacked.qr().r();
-        start = end;
-    }
-    // A square factor (zero rows when there are fewer equations than unknowns).
-    let square = DMatrix::from_fn(
-        width,
-        width,
-        |i, c| {
-            if i < r.nrows() {
-                r[(i, c)]
-            } else {
-                0.0
-            }
-        },
-    );
+        if reduced {
+            block.gemm(1.0, &scaled, &basis, 0.0);
+        } else {
+            block.copy_from(&scaled);
+        }
+    });
     let (_, singular, v) = crate::solve::linalg::svd(&square)
         .ok_or_else(|| invalid("identifiability", "the singular value decomposition failed"))?;
     let top = singular
@@ -448,7 +431,7 @@ fn hamiltonian_coefficients<S: MetriplecticSystem>(
     if a.nrows() < p {
         return None;
     }
-    let h = a.clone().svd(true, true).solve(&b, 1e-14).ok()?;
+    let h = least_squares(&a, &b, 1e-14)?;
     let residual = (&a * &h - &b).norm();
     (residual <= 1e-9 * b.norm().max(f64::MIN_POSITIVE)).then(|| h.iter().copied().collect())
 }

@@ -17,7 +17,7 @@
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::triangular::BlockStructure;
 use faer::{Accum, MatMut, MatRef, Par, Side};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DMatrixViewMut, DVector};
 use rayon::prelude::*;
 
 /// Below this many multiply-adds a kernel runs on one thread: splitting
@@ -488,33 +488,46 @@ fn householder_qr_in_place(m: &mut DMatrix<f64>) {
 }
 
 /// R (n × n, upper triangular) with RᵀR = MᵀM for the `rows` × `n` matrix M
-/// whose row i `fill_row(i, row)` writes: Householder QRs of `QR_BLOCK` · n
-/// rows at a time, each on the previous R stacked over the new rows, so the
-/// memory is a few n × n matrices whatever the number of rows and the
-/// work is linear in it. R has M's singular values down to ε‖M‖ (MᵀM
-/// formed would lose those below √ε‖M‖).
+/// whose row i `fill_row(i, row)` writes; see [`triangular_factor_by_blocks`].
 pub(crate) fn triangular_factor(
     rows: usize,
     n: usize,
     fill_row: impl Fn(usize, &mut [f64]),
+) -> DMatrix<f64> {
+    let mut row = vec![0.0; n];
+    triangular_factor_by_blocks(rows, n, |first, mut block| {
+        for i in 0..block.nrows() {
+            fill_row(first + i, &mut row);
+            for (j, value) in row.iter().enumerate() {
+                block[(i, j)] = *value;
+            }
+        }
+    })
+}
+
+/// R (n × n, upper triangular) with RᵀR = MᵀM for the `rows` × `n` matrix M
+/// whose rows `first..first + block.nrows()` `fill_block(first, block)`
+/// writes: Householder QRs of `QR_BLOCK` · n rows at a time, each on the
+/// previous R stacked over the new rows, so the memory is a few n × n
+/// matrices whatever the number of rows and the work is linear in it. R has
+/// M's singular values down to ε‖M‖ (MᵀM formed would lose those below
+/// √ε‖M‖).
+pub(crate) fn triangular_factor_by_blocks(
+    rows: usize,
+    n: usize,
+    mut fill_block: impl FnMut(usize, DMatrixViewMut<'_, f64>),
 ) -> DMatrix<f64> {
     let mut r = DMatrix::<f64>::zeros(n, n);
     if n == 0 {
         return r;
     }
     let block = QR_BLOCK * n;
-    let mut row = vec![0.0; n];
     let mut start = 0;
     while start < rows {
         let end = (start + block).min(rows);
         let mut stacked = DMatrix::<f64>::zeros(n + end - start, n);
         stacked.view_mut((0, 0), (n, n)).copy_from(&r);
-        for i in start..end {
-            fill_row(i, &mut row);
-            for (j, value) in row.iter().enumerate() {
-                stacked[(n + i - start, j)] = *value;
-            }
-        }
+        fill_block(start, stacked.view_mut((n, 0), (end - start, n)));
         householder_qr_in_place(&mut stacked);
         r = DMatrix::from_fn(n, n, |i, j| if i <= j { stacked[(i, j)] } else { 0.0 });
         start = end;
@@ -557,6 +570,29 @@ pub(crate) fn svd(m: &DMatrix<f64>) -> Option<(DMatrix<f64>, Vec<f64>, DMatrix<f
     finite.then_some((u, values, v))
 }
 
+/// The minimum-norm least-squares solution of a x ≈ b from a thin SVD,
+/// singular values at most `relative` times the largest counted as zero;
+/// `None` on failure or a non-finite result.
+pub(crate) fn least_squares(
+    a: &DMatrix<f64>,
+    b: &DVector<f64>,
+    relative: f64,
+) -> Option<DVector<f64>> {
+    let (rows, columns) = a.shape();
+    let svd = view(a).thin_svd().ok()?;
+    let (u, s, v) = (svd.U(), svd.S(), svd.V());
+    let rank = rows.min(columns);
+    let largest = if rank > 0 { s[0] } else { 0.0 };
+    let mut x = DVector::<f64>::zeros(columns);
+    for j in (0..rank).filter(|&j| s[j] > relative * largest) {
+        let coefficient = (0..rows).map(|i| u[(i, j)] * b[i]).sum::<f64>() / s[j];
+        for i in 0..columns {
+            x[i] += coefficient * v[(i, j)];
+        }
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
 /// The singular values (descending) of any matrix; `None` on failure.
 pub(crate) fn singular_values(m: &DMatrix<f64>) -> Option<Vec<f64>> {
     view(m).singular_values().ok()
@@ -577,6 +613,24 @@ mod tests {
         assert!((&g * &x - &b).amax() < 1e-12);
         assert!((factor.l() * factor.l().transpose() - &g).amax() < 1e-12);
         assert!(Cholesky::new(&DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0])).is_none());
+    }
+
+    /// The minimum-norm solution where a's columns are dependent, the
+    /// exact one where they are not.
+    #[test]
+    fn least_squares_takes_the_minimum_norm_solution() {
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 1.0, 1.0, 1.0, 0.0, 0.0]);
+        let b = DVector::from_vec(vec![2.0, 2.0, 1.0]);
+        let x = least_squares(&a, &b, 1e-14).unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-14 && (x[1] - 1.0).abs() < 1e-14);
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 1.0, 1.0, 1.0, 2.0]);
+        let b = DVector::from_vec(vec![1.0, 2.0, 3.0]);
+        let x = least_squares(&a, &b, 1e-14).unwrap();
+        let normal = (a.transpose() * &a)
+            .lu()
+            .solve(&(a.transpose() * &b))
+            .unwrap();
+        assert!((x - normal).amax() < 1e-14);
     }
 
     /// The factor of MᵀM from blocked QRs of M's rows: L Lᵀ = MᵀM over
