@@ -41,7 +41,7 @@ use faer::linalg::matmul::triangular::{matmul, BlockStructure};
 use faer::{Accum, MatMut, MatRef, Par};
 use metriplectic::systems::reference_samples;
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{entropy_search, SearchOptions, SearchReport};
+use metriplectic_runtime::{entropy_search, SearchOptions, SearchReport, SolveStatus};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -379,8 +379,20 @@ fn identification_series<S: MetriplecticSystem>(qs: &[usize]) {
             .compare(&truth, &held_out)
             .expect("comparable models")
             .relative_error;
+        // The steps that did not end Solved, by status: a false failure
+        // shows here even when the run still converges.
+        let unsolved: Vec<String> = steps
+            .iter()
+            .filter(|r| r.status != SolveStatus::Solved)
+            .map(|r| format!("{:?}", r.status))
+            .collect();
+        let unsolved = if unsolved.is_empty() {
+            "none".to_owned()
+        } else {
+            unsolved.join(", ")
+        };
         println!(
-            "| {} | {q} | {:?} | {} | {} | {ipm} | {wall:.1} | {inside:.1} | {:.1} | {error:.1e} |",
+            "| {} | {q} | {:?} | {} | {} | {unsolved} | {ipm} | {wall:.1} | {inside:.1} | {:.1} | {error:.1e} |",
             S::entropy_coefficient_count(),
             fit.stop_reason,
             fit.history.iterations.len(),
@@ -517,9 +529,9 @@ fn main() {
 
     println!("\n### Whole identifications (default configuration, exact samples)\n");
     println!(
-        "| p | q | stop | iterations | solves | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
+        "| p | q | stop | iterations | solves | not Solved | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     identification_series::<ChainDegree4>(qs);
     identification_series::<ChainDegree6>(if quick {
         &[2000, 4000]
