@@ -58,8 +58,18 @@ pub struct IdentifyConfig {
     /// Initial entropy coefficients ψ⁽⁰⁾ (zero outside the support of
     /// [`search`](Self::search)). Default `None`: fitted, the
     /// entropy search's solution with the initial metric (on the full data,
-    /// or on q samples of a minibatch run), zeros if that solve fails.
+    /// or on q samples of a minibatch run, at most
+    /// [`start_samples`](Self::start_samples)), zeros if that solve fails.
     pub initial_entropy: Option<Vec<f64>>,
+    /// The most samples the fitted start (no `initial_entropy`) is fitted
+    /// on: a larger pool, or a larger minibatch, is subsampled at random
+    /// (from a stream of its own, seeded by [`seed`](Self::seed)), but never
+    /// below ten equations per entropy coefficient. The start only sets
+    /// where the iteration begins, and on all of a large dataset its fit
+    /// is the run's costliest solve: an entropy search with a metric far
+    /// from the truth, whose interior-point iterations grow with the data.
+    /// `usize::MAX` fits it on every sample. Default 2000.
+    pub start_samples: usize,
     /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite, and
     /// against the support and gauge of [`search`](Self::search)).
     /// Default `None`: the identity metric, scaled to the gauge if one is set.
@@ -156,6 +166,7 @@ impl Default for IdentifyConfig {
             polish: true,
             seed: 0,
             initial_entropy: None,
+            start_samples: 2000,
             initial_metric: None,
             search: SearchOptions::default(),
             max_failed_iterations: 3,
@@ -205,6 +216,12 @@ impl IdentifyConfig {
                 ))
             }
             _ => {}
+        }
+        if self.start_samples == 0 {
+            return Err(invalid(
+                "start samples",
+                "must be at least 1 (usize::MAX fits the start on every sample)",
+            ));
         }
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return Err(invalid(

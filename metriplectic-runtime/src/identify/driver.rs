@@ -295,8 +295,9 @@ impl<D: IdentificationData> Split<D> {
 }
 
 /// The default start: the entropy search's fit with the initial metric, on
-/// the batch pool (a minibatch run: q of its equations, drawn from a stream
-/// of their own), or zeros if that solve fails.
+/// the batch pool (a minibatch run: q of its equations), subsampled to
+/// [`start_samples`](IdentifyConfig::start_samples) (the samples drawn from
+/// a stream of their own), or zeros if that solve fails.
 ///
 /// Starting from S = 0 instead misleads the first metric search: it fits
 /// (Π + K)∇H to the data, where the best K is often near 0, and with K ≈ 0
@@ -306,13 +307,19 @@ fn fitted_start<S: MetriplecticSystem>(
     config: &IdentifyConfig,
     metric: &[f64],
 ) -> Result<Vec<f64>> {
-    let batch = match config.batch_size {
-        Some(q) if q < pool.equation_count() => {
-            let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x57a7_0f5e_a7c4_0000);
-            let indices = rand::seq::index::sample(&mut rng, pool.equation_count(), q).into_vec();
-            Some(pool.select(&indices)?)
-        }
-        _ => None,
+    let available = pool.equation_count();
+    // Ten equations per coefficient keep the start's L1 fit overdetermined.
+    let enough = (10 * S::entropy_coefficient_count()).div_ceil(S::DIM);
+    let wanted = config
+        .batch_size
+        .unwrap_or(available)
+        .min(config.start_samples.max(enough));
+    let batch = if wanted < available {
+        let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x57a7_0f5e_a7c4_0000);
+        let indices = rand::seq::index::sample(&mut rng, available, wanted).into_vec();
+        Some(pool.select(&indices)?)
+    } else {
+        None
     };
     let search = entropy_search::<S>(batch.as_ref().unwrap_or(pool), metric, &config.search)?;
     let usable =
@@ -670,6 +677,44 @@ mod tests {
             result.history
         );
         assert_non_increasing(&result.history);
+    }
+
+    /// The start is fitted on at most `start_samples` samples, but never on
+    /// fewer than ten equations per entropy coefficient; a run from the
+    /// subsampled start still fits the exact data.
+    #[test]
+    fn the_fitted_start_takes_a_subsample_of_a_large_pool() {
+        let data = reference_data(400, 11);
+        let metric = identity_metric::<Quadratic2d>(1.0);
+        let start = |start_samples| {
+            let config = IdentifyConfig {
+                start_samples,
+                ..alternation()
+            };
+            fitted_start::<Quadratic2d>(&data, &config, &metric).unwrap()
+        };
+        let everything =
+            entropy_search::<Quadratic2d>(&data, &metric, &SearchOptions::default()).unwrap();
+        assert_eq!(start(usize::MAX), everything.coefficients);
+        assert_eq!(start(400), everything.coefficients);
+        // p = 5 coefficients, n = 2 components: at least 25 samples.
+        assert_eq!(start(1), start(25));
+        assert_ne!(start(25), start(26));
+        assert_ne!(start(40), everything.coefficients);
+
+        let config = IdentifyConfig {
+            start_samples: 40,
+            max_iterations: 20,
+            ..alternation()
+        };
+        let result = identify::<Quadratic2d>(&data, &config).unwrap();
+        assert_eq!(result.stop_reason, StopReason::Converged);
+        let zero = IdentifyConfig {
+            start_samples: 0,
+            ..alternation()
+        };
+        let error = identify::<Quadratic2d>(&data, &zero).unwrap_err();
+        assert!(error.to_string().contains("start samples"), "{error}");
     }
 
     #[test]
