@@ -120,9 +120,9 @@ impl RowMajor {
         Self::from_rows(rows, columns, data)
     }
 
-    /// Number of rows.
-    pub(crate) fn nrows(&self) -> usize {
-        self.rows
+    /// The row-major values, moved out.
+    pub(crate) fn into_data(self) -> Vec<f64> {
+        self.data
     }
 
     /// Number of columns.
@@ -286,22 +286,6 @@ impl RowMajor {
             sum.iter_mut().zip(partial).for_each(|(o, p)| *o += p);
         }
         (DVector::from_vec(product), sum)
-    }
-
-    /// A B, by rows (B column-major, k × k′).
-    pub(crate) fn mul_matrix(&self, b: &DMatrix<f64>) -> RowMajor {
-        assert_eq!(b.nrows(), self.columns, "A B with B of A's width");
-        let width = b.ncols();
-        let mut data = vec![0.0; self.rows * width];
-        faer::linalg::matmul::matmul(
-            MatMut::from_row_major_slice_mut(&mut data, self.rows, width),
-            Accum::Replace,
-            MatRef::from_row_major_slice(&self.data, self.rows, self.columns),
-            view(b),
-            1.0,
-            parallelism(self.data.len() as f64 * width as f64),
-        );
-        RowMajor::from_rows(self.rows, width, data)
     }
 
     /// Rows per block of [`RowMajor::weighted_gram`]: `GRAM_BLOCK` where a
@@ -697,8 +681,6 @@ mod tests {
     ) -> Vec<DMatrix<f64>> {
         let (av, atw) = a.mul_and_tr_mul(v, w);
         let (_, at_weighted) = a.mul_then_tr_mul(v, weight_of);
-        let b = pseudo_random(a.ncols(), 3, 9);
-        let ab = a.mul_matrix(&b);
         vec![
             DMatrix::from_column_slice(a.rows, 1, a.mul(v).as_slice()),
             DMatrix::from_column_slice(a.columns, 1, a.tr_mul(w).as_slice()),
@@ -706,7 +688,6 @@ mod tests {
             DMatrix::from_column_slice(a.columns, 1, atw.as_slice()),
             DMatrix::from_column_slice(a.columns, 1, at_weighted.as_slice()),
             a.weighted_gram(d),
-            DMatrix::from_row_slice(a.rows, 3, &ab.data),
         ]
     }
 

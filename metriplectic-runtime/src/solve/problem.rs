@@ -126,20 +126,13 @@ impl Regression {
         }
     }
 
-    /// The rows of `self` followed by those of `below` (same width).
-    pub(crate) fn stacked(&self, below: &Regression) -> Regression {
+    /// The rows of `self` followed by those of `below` (same width), in
+    /// `self`'s storage: a large regression is not copied.
+    pub(crate) fn stacked(mut self, below: &Regression) -> Regression {
         debug_assert_eq!(self.width, below.width);
-        let mut rows = Vec::with_capacity(self.rows.len() + below.rows.len());
-        rows.extend_from_slice(&self.rows);
-        rows.extend_from_slice(&below.rows);
-        let mut target = Vec::with_capacity(self.len() + below.len());
-        target.extend_from_slice(&self.target);
-        target.extend_from_slice(&below.target);
-        Regression {
-            width: self.width,
-            rows,
-            target,
-        }
+        self.rows.extend_from_slice(&below.rows);
+        self.target.extend_from_slice(&below.target);
+        self
     }
 
     /// Σᵢ |aᵢₖ| for every column k: the largest rate at which the L1
@@ -154,9 +147,15 @@ impl Regression {
 
     /// Σᵢ |tᵢ − aᵢᵀ c|: the L1 objective at coefficients `c` (`width` long).
     pub fn l1_residual(&self, c: &[f64]) -> f64 {
+        self.l1_residual_of_first(self.len(), c)
+    }
+
+    /// [`l1_residual`](Self::l1_residual) over the first `rows` rows only.
+    pub(crate) fn l1_residual_of_first(&self, rows: usize, c: &[f64]) -> f64 {
         self.rows
             .chunks_exact(self.width.max(1))
             .zip(&self.target)
+            .take(rows)
             .map(|(row, t)| (t - row.iter().zip(c).map(|(a, x)| a * x).sum::<f64>()).abs())
             .sum()
     }
