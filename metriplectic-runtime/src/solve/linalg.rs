@@ -302,15 +302,21 @@ impl RowMajor {
     }
 
     /// Aᵀ diag(d) A for d ≥ 0, symmetric (both triangles filled): each block
-    /// of rows ([`RowMajor::gram_block`]) is scaled by √d into one reused
-    /// buffer and its Gram product added to the lower triangle, in block
-    /// order.
-    pub(crate) fn weighted_gram(&self, d: &DVector<f64>) -> DMatrix<f64> {
+    /// of rows ([`RowMajor::gram_block`]) is scaled by √d into `buffer`
+    /// and its Gram product added to the lower triangle, in block order.
+    /// The buffer is grown to a block's size if it is shorter; an
+    /// interior-point method passes the same one at every iteration, since
+    /// zeroing a fresh one (30 MB at a thousand columns) costs 1–2% of an
+    /// iteration.
+    pub(crate) fn weighted_gram(&self, d: &DVector<f64>, buffer: &mut Vec<f64>) -> DMatrix<f64> {
         assert_eq!(d.len(), self.rows, "one weight per row");
         let k = self.columns;
         let mut out = DMatrix::zeros(k, k);
         let block_rows = self.gram_block();
-        let mut buffer = vec![0.0; block_rows.min(self.rows) * k];
+        let needed = block_rows.min(self.rows) * k;
+        if buffer.len() < needed {
+            buffer.resize(needed, 0.0);
+        }
         for (index, block) in self.data.chunks(block_rows * k.max(1)).enumerate() {
             let rows = block.len() / k.max(1);
             let scaled = &mut buffer[..rows * k];
@@ -391,7 +397,10 @@ impl Cholesky {
             MemStack::new(&mut memory),
             Default::default(),
         );
-        if factored.is_err() || !l.iter().all(|v| v.is_finite()) {
+        // Every entry of L's row i enters its pivot, d_i = m_ii − Σⱼ l_ij²,
+        // and faer rejects a pivot that is not positive (NaN included), so
+        // a finite diagonal means a finite factor.
+        if factored.is_err() || !(0..n).all(|i| l[(i, i)].is_finite()) {
             return None;
         }
         for j in 0..n {
@@ -599,6 +608,33 @@ mod tests {
         assert!(Cholesky::new(&DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0])).is_none());
     }
 
+    /// A factor is only returned finite, although only its diagonal is
+    /// checked: a non-finite entry anywhere in the lower triangle reaches
+    /// a pivot. Sizes above faer's recursion threshold take its blocked path.
+    #[test]
+    fn non_finite_entries_give_no_factor() {
+        for n in [3, 150] {
+            let base = DMatrix::from_fn(n, n, |i, j| if i == j { n as f64 } else { 0.5 });
+            for value in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                for (i, j) in [
+                    (n - 1, 0),
+                    (n / 2, n / 3),
+                    (n - 1, n - 2),
+                    (0, 0),
+                    (n - 1, n - 1),
+                ] {
+                    let mut m = base.clone();
+                    m[(i, j)] = value;
+                    assert!(
+                        Cholesky::new(&m).is_none(),
+                        "n = {n}, {value} at ({i}, {j})"
+                    );
+                }
+            }
+            assert!(Cholesky::new(&base).is_some());
+        }
+    }
+
     /// The minimum-norm solution where a's columns are dependent, the
     /// exact one where they are not.
     #[test]
@@ -687,7 +723,7 @@ mod tests {
             DMatrix::from_column_slice(a.rows, 1, av.as_slice()),
             DMatrix::from_column_slice(a.columns, 1, atw.as_slice()),
             DMatrix::from_column_slice(a.columns, 1, at_weighted.as_slice()),
-            a.weighted_gram(d),
+            a.weighted_gram(d, &mut Vec::new()),
         ]
     }
 

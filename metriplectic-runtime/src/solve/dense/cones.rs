@@ -127,6 +127,34 @@ impl SideScaling {
         )
     }
 
+    /// W⁻ᵀ G column by column, for a matrix G of side-cone rows: the
+    /// Newton system's G̃. The orthant rows are divided by w in one pass;
+    /// a PSD segment's congruence is applied only to the columns that are
+    /// non-zero on it (a box on the coefficients has no PSD rows at all, a
+    /// column of an SOS table touches few blocks).
+    pub fn apply_inverse_wt_columns(&self, segments: &[Segment], g: &DMatrix<f64>) -> DMatrix<f64> {
+        let (m, k) = g.shape();
+        let mut out = DMatrix::zeros(m, k);
+        if m == 0 {
+            return out;
+        }
+        for (column, target) in g
+            .as_slice()
+            .chunks_exact(m)
+            .zip(out.as_mut_slice().chunks_exact_mut(m))
+        {
+            self.apply_into(
+                segments,
+                column,
+                target,
+                |i, x| x / self.w[i],
+                |sc, m| sc.r_inv_t.transpose() * m * &sc.r_inv_t,
+                true,
+            );
+        }
+        out
+    }
+
     fn apply(
         &self,
         segments: &[Segment],
@@ -135,12 +163,39 @@ impl SideScaling {
         cone: impl Fn(&PsdScaling, &DMatrix<f64>) -> DMatrix<f64>,
     ) -> DVector<f64> {
         let mut out = DVector::zeros(v.len());
+        self.apply_into(
+            segments,
+            v.as_slice(),
+            out.as_mut_slice(),
+            orthant,
+            cone,
+            false,
+        );
+        out
+    }
+
+    /// `out` = the scaling of `v`, segment by segment; `out` starts at
+    /// zero. With `skip_zero_cones` a PSD segment on which `v` is zero is
+    /// left at zero without its congruence (the same value for a finite
+    /// scaling).
+    fn apply_into(
+        &self,
+        segments: &[Segment],
+        v: &[f64],
+        out: &mut [f64],
+        orthant: impl Fn(usize, f64) -> f64,
+        cone: impl Fn(&PsdScaling, &DMatrix<f64>) -> DMatrix<f64>,
+        skip_zero_cones: bool,
+    ) {
         for (segment, scaling) in segments.iter().zip(&self.psd) {
             let range = segment.range();
             match (segment.psd, scaling) {
                 (Some(n), Some(sc)) => {
-                    let m = smat(n, &v.as_slice()[range.clone()]);
-                    svec_into(&cone(sc, &m), &mut out.as_mut_slice()[range]);
+                    let part = &v[range.clone()];
+                    if skip_zero_cones && part.iter().all(|x| *x == 0.0) {
+                        continue;
+                    }
+                    svec_into(&cone(sc, &smat(n, part)), &mut out[range]);
                 }
                 _ => {
                     for i in range {
@@ -149,7 +204,6 @@ impl SideScaling {
                 }
             }
         }
-        out
     }
 }
 
@@ -374,6 +428,46 @@ mod tests {
         assert!((scaled - &lambda).amax() < 1e-12);
         let back = scaling.apply_inverse_w(&segments, &lambda);
         assert!((back - z).amax() < 1e-12);
+    }
+
+    #[test]
+    fn scaled_columns_match_the_scaled_vectors() {
+        // An orthant of two and a 2×2 PSD cone; G has a column that is zero
+        // on the cone, which the column map skips.
+        let segments = [
+            Segment {
+                block: 0,
+                offset: 0,
+                psd: None,
+                len: 2,
+            },
+            Segment {
+                block: 1,
+                offset: 2,
+                psd: Some(2),
+                len: 3,
+            },
+        ];
+        let s = DVector::from_vec(vec![0.5, 2.0, 2.0, 0.3 * 2f64.sqrt(), 1.0]);
+        let z = DVector::from_vec(vec![3.0, 0.25, 0.5, -0.1 * 2f64.sqrt(), 3.0]);
+        let scaling = SideScaling::new(&segments, &s, &z).unwrap();
+        let g = DMatrix::from_row_slice(
+            5,
+            3,
+            &[
+                1.0, 0.0, -2.0, //
+                0.0, 3.0, 0.5, //
+                0.7, 0.0, 0.0, //
+                -1.2, 0.0, 0.0, //
+                0.4, 0.0, 1.5,
+            ],
+        );
+        let scaled = scaling.apply_inverse_wt_columns(&segments, &g);
+        for j in 0..3 {
+            let column = scaling.apply_inverse_wt(&segments, &g.column(j).into_owned());
+            assert_eq!(scaled.column(j), column, "column {j}");
+        }
+        assert!(scaled.column(1).rows(2, 3).iter().all(|v| *v == 0.0));
     }
 
     #[test]

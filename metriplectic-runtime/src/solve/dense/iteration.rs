@@ -79,7 +79,9 @@ impl Point {
 /// Runs the method on `p`: the final point, its status and the iterations taken.
 pub(super) fn iterate(p: &Reduced, settings: &SolverSettings) -> (Point, SolveStatus, u32) {
     let start = Instant::now();
-    let Some(mut x) = initial_point(p) else {
+    // A's scaled rows while each Schur complement is formed.
+    let mut buffer = Vec::new();
+    let Some(mut x) = initial_point(p, &mut buffer) else {
         return (Point::failed(p), SolveStatus::NumericalError, 0);
     };
     let mut progress = Progress::default();
@@ -123,7 +125,7 @@ pub(super) fn iterate(p: &Reduced, settings: &SolverSettings) -> (Point, SolveSt
         let Some(scaling) = SideScaling::new(&p.segments, &x.sc, &x.zc) else {
             return progress.finish(x, SolveStatus::NumericalError, iteration);
         };
-        let Some(step) = Step::new(p, &x, &scaling) else {
+        let Some(step) = Step::new(p, &x, &scaling, &mut buffer) else {
             return progress.finish(x, SolveStatus::NumericalError, iteration);
         };
 
@@ -400,10 +402,15 @@ struct Step<'a> {
 }
 
 impl<'a> Step<'a> {
-    fn new(p: &'a Reduced, x: &Point, scaling: &'a SideScaling) -> Option<Self> {
+    fn new(
+        p: &'a Reduced,
+        x: &Point,
+        scaling: &'a SideScaling,
+        buffer: &mut Vec<f64>,
+    ) -> Option<Self> {
         let d1 = x.z1.component_div(&x.s1);
         let d2 = x.z2.component_div(&x.s2);
-        let newton = Newton::new(p, scaling, d1, d2)?;
+        let newton = Newton::new(p, scaling, d1, d2, buffer)?;
         Some(Self {
             problem: p,
             scaling,
@@ -633,11 +640,11 @@ impl<'a> Step<'a> {
 
 /// `coneqp`'s starting point: least-squares primal and least-norm dual
 /// solutions of the KKT system with W = I, shifted into the cones.
-fn initial_point(p: &Reduced) -> Option<Point> {
+fn initial_point(p: &Reduced, buffer: &mut Vec<f64>) -> Option<Point> {
     let (k, r, m) = (p.a.ncols(), p.t.len(), p.h.len());
     let identity = SideScaling::identity(&p.segments, m);
     let ones = DVector::from_element(r, 1.0);
-    let newton = Newton::new(p, &identity, ones.clone(), ones)?;
+    let newton = Newton::new(p, &identity, ones.clone(), ones, buffer)?;
     let zero_r = DVector::zeros(r);
     // Primal: bz = h gives dz = G x − h = −s.
     let Kkt { y, e, z1, z2, zc } = newton.solve(&Kkt {
@@ -691,10 +698,10 @@ mod tests {
     #[test]
     fn a_target_change_is_the_difference_of_two_directions() {
         let p = reduced(&box_problem(random_regression(400, 6, 11), 10.0));
-        let x = initial_point(&p).unwrap();
+        let x = initial_point(&p, &mut Vec::new()).unwrap();
         let residuals = Residuals::new(&p, &x);
         let scaling = SideScaling::new(&p.segments, &x.sc, &x.zc).unwrap();
-        let step = Step::new(&p, &x, &scaling).unwrap();
+        let step = Step::new(&p, &x, &scaling, &mut Vec::new()).unwrap();
         let target = step.affine_target();
         let before = step.direction(&residuals, &target);
         let sparse = |rows: &[usize]| {

@@ -100,19 +100,23 @@ pub(super) struct Newton<'a> {
 }
 
 impl<'a> Newton<'a> {
-    /// Forms and factorises Aᵀ D̃ A + G̃ᵀ G̃, with D̃ = 4 d₁d₂/(d₁ + d₂).
+    /// Forms and factorises Aᵀ D̃ A + G̃ᵀ G̃, with D̃ = 4 d₁d₂/(d₁ + d₂);
+    /// `buffer` holds A's scaled rows while Aᵀ D̃ A is formed (reused
+    /// across iterations, see
+    /// [`crate::solve::linalg::RowMajor::weighted_gram`]).
     pub fn new(
         problem: &'a Reduced,
         scaling: &SideScaling,
         d1: DVector<f64>,
         d2: DVector<f64>,
+        buffer: &mut Vec<f64>,
     ) -> Option<Self> {
-        let scaled_g = scaled_rows(problem, scaling);
+        let scaled_g = scaling.apply_inverse_wt_columns(&problem.segments, &problem.g);
         let weights = DVector::from_iterator(
             d1.len(),
             d1.iter().zip(d2.iter()).map(|(a, b)| 4.0 * a * b / (a + b)),
         );
-        let schur = schur_complement(problem, &scaled_g, &weights);
+        let schur = schur_complement(problem, &scaled_g, &weights, buffer);
         let schur = factorise(schur)?;
         Some(Self {
             problem,
@@ -411,26 +415,14 @@ impl Products {
     }
 }
 
-/// G̃ = W⁻ᵀ G, column by column.
-fn scaled_rows(problem: &Reduced, scaling: &SideScaling) -> DMatrix<f64> {
-    let (m, k) = problem.g.shape();
-    let mut scaled = DMatrix::zeros(m, k);
-    if m > 0 {
-        for (j, column) in problem.g.column_iter().enumerate() {
-            let mapped = scaling.apply_inverse_wt(&problem.segments, &column.into_owned());
-            scaled.set_column(j, &mapped);
-        }
-    }
-    scaled
-}
-
 /// Aᵀ D̃ A + G̃ᵀ G̃, both Gram products (symmetric by construction).
 fn schur_complement(
     problem: &Reduced,
     scaled_g: &DMatrix<f64>,
     weights: &DVector<f64>,
+    buffer: &mut Vec<f64>,
 ) -> DMatrix<f64> {
-    let mut schur = problem.a.weighted_gram(weights);
+    let mut schur = problem.a.weighted_gram(weights, buffer);
     let rows = &problem.side_rows;
     if rows.dense.len() == scaled_g.nrows() {
         if !rows.dense.is_empty() {
