@@ -215,21 +215,8 @@ impl RowMajor {
         out
     }
 
-    /// (A v, Aᵀ w) in one pass over A: each slice of `FUSED_ROWS` rows is
-    /// read from memory once and used twice from the cache.
-    pub(crate) fn mul_and_tr_mul(
-        &self,
-        v: &DVector<f64>,
-        w: &DVector<f64>,
-    ) -> (DVector<f64>, DVector<f64>) {
-        assert_eq!(w.len(), self.rows, "Aᵀ w with w of A's height");
-        self.mul_then_tr_mul(v, |i, _| w[i])
-    }
-
     /// (A v, Aᵀ w) in one pass over A when w depends on A v row by row:
-    /// wᵢ = `weight`(i, (A v)ᵢ). Each slice of `FUSED_ROWS` rows is
-    /// multiplied by v, its weights formed, and multiplied back while it is
-    /// still in the cache. A Newton solve needs A dy to recover the
+    /// wᵢ = `weight`(i, (A v)ᵢ). A Newton solve needs A dy to recover the
     /// multipliers' directions, and Aᵀ of those directions to check the
     /// solve: this reads A once for both.
     pub(crate) fn mul_then_tr_mul(
@@ -237,6 +224,21 @@ impl RowMajor {
         v: &DVector<f64>,
         weight: impl Fn(usize, f64) -> f64 + Sync,
     ) -> (DVector<f64>, DVector<f64>) {
+        let (product, [sum]) = self.mul_then_tr_mul_many(v, |i, av| [weight(i, av)]);
+        (product, sum)
+    }
+
+    /// (A v, Aᵀ w₁, …, Aᵀ w_N) in one pass over A, where row i of every wₙ
+    /// depends on (A v)ᵢ: `weights`(i, (A v)ᵢ) = (w₁ᵢ, …, w_Nᵢ). Each slice
+    /// of `FUSED_ROWS` rows is multiplied by v, its weights formed, and
+    /// multiplied back while it is still in the cache. The products with A
+    /// are the memory-bound part of an iteration, so every right-hand side
+    /// that can be formed row by row in a pass shares it.
+    pub(crate) fn mul_then_tr_mul_many<const N: usize>(
+        &self,
+        v: &DVector<f64>,
+        weights: impl Fn(usize, f64) -> [f64; N] + Sync,
+    ) -> (DVector<f64>, [DVector<f64>; N]) {
         assert_eq!(v.len(), self.columns, "A v with v of A's width");
         let columns = self.columns;
         let v = MatRef::from_column_major_slice(v.as_slice(), columns, 1);
@@ -244,8 +246,10 @@ impl RowMajor {
             let block = self.block(b);
             let first = b * ROW_BLOCK;
             let mut product = vec![0.0; block.nrows()];
-            let mut weights = vec![0.0; FUSED_ROWS.min(block.nrows())];
-            let mut partial = vec![0.0; columns];
+            let slice_rows = FUSED_ROWS.min(block.nrows());
+            // Column-major: the slice's n-th weight vector is column n.
+            let mut slice_weights = vec![0.0; slice_rows * N];
+            let mut partial = vec![0.0; columns * N];
             let mut start = 0;
             while start < block.nrows() {
                 let rows = FUSED_ROWS.min(block.nrows() - start);
@@ -259,19 +263,21 @@ impl RowMajor {
                     1.0,
                     Par::Seq,
                 );
-                let weights = &mut weights[..rows];
-                for (j, (w, av)) in weights.iter_mut().zip(slice_product.iter()).enumerate() {
-                    *w = weight(first + start + j, *av);
+                let slice_weights = &mut slice_weights[..rows * N];
+                for (j, av) in slice_product.iter().enumerate() {
+                    for (n, w) in weights(first + start + j, *av).into_iter().enumerate() {
+                        slice_weights[n * rows + j] = w;
+                    }
                 }
                 faer::linalg::matmul::matmul(
-                    MatMut::from_column_major_slice_mut(&mut partial, columns, 1),
+                    MatMut::from_column_major_slice_mut(&mut partial, columns, N),
                     if start == 0 {
                         Accum::Replace
                     } else {
                         Accum::Add
                     },
                     slice.transpose(),
-                    MatRef::from_column_major_slice(weights, rows, 1),
+                    MatRef::from_column_major_slice(slice_weights, rows, N),
                     1.0,
                     Par::Seq,
                 );
@@ -280,12 +286,14 @@ impl RowMajor {
             (product, partial)
         });
         let mut product = Vec::with_capacity(self.rows);
-        let mut sum = DVector::zeros(columns);
+        let mut sums = std::array::from_fn(|_| DVector::zeros(columns));
         for (part, partial) in parts {
             product.extend(part);
-            sum.iter_mut().zip(partial).for_each(|(o, p)| *o += p);
+            for (sum, partial) in sums.iter_mut().zip(partial.chunks_exact(columns.max(1))) {
+                sum.iter_mut().zip(partial).for_each(|(o, p)| *o += p);
+            }
         }
-        (DVector::from_vec(product), sum)
+        (DVector::from_vec(product), sums)
     }
 
     /// Rows per block of [`RowMajor::weighted_gram`]: `GRAM_BLOCK` where a
@@ -715,14 +723,16 @@ mod tests {
         w: &DVector<f64>,
         d: &DVector<f64>,
     ) -> Vec<DMatrix<f64>> {
-        let (av, atw) = a.mul_and_tr_mul(v, w);
-        let (_, at_weighted) = a.mul_then_tr_mul(v, weight_of);
+        // Two transposed products in one pass, one of them fixed weights.
+        let (av, [atw, at_weighted]) = a.mul_then_tr_mul_many(v, |i, av| [w[i], weight_of(i, av)]);
+        let (_, at_weighted_alone) = a.mul_then_tr_mul(v, weight_of);
         vec![
             DMatrix::from_column_slice(a.rows, 1, a.mul(v).as_slice()),
             DMatrix::from_column_slice(a.columns, 1, a.tr_mul(w).as_slice()),
             DMatrix::from_column_slice(a.rows, 1, av.as_slice()),
             DMatrix::from_column_slice(a.columns, 1, atw.as_slice()),
             DMatrix::from_column_slice(a.columns, 1, at_weighted.as_slice()),
+            DMatrix::from_column_slice(a.columns, 1, at_weighted_alone.as_slice()),
             a.weighted_gram(d, &mut Vec::new()),
         ]
     }
@@ -747,7 +757,6 @@ mod tests {
         for (mut row, weight) in scaled.row_iter_mut().zip(d.iter()) {
             row *= *weight;
         }
-        let b = pseudo_random(columns, 3, 9);
         let mv = &m * &v;
         let mtw = m.tr_mul(&w);
         let column = |v: &DVector<f64>| DMatrix::from_column_slice(v.len(), 1, v.as_slice());
@@ -757,9 +766,10 @@ mod tests {
             column(&mv),
             column(&mtw),
             column(&m.tr_mul(&DVector::from_fn(rows, |i, _| weight_of(i, mv[i])))),
+            column(&m.tr_mul(&DVector::from_fn(rows, |i, _| weight_of(i, mv[i])))),
             m.transpose() * &scaled,
-            &m * &b,
         ];
+        assert_eq!(products.len(), expected.len());
         for (got, want) in products.iter().zip(expected.iter()) {
             let error = (got - want).amax() / want.amax();
             assert!(error < 1e-13, "relative error {error}");

@@ -12,7 +12,7 @@ use super::cones::{
     cone_identity, jordan_divide, jordan_product, shift_into_cones, shift_orthant, side_step_limit,
     slack_step_limit, SideScaling,
 };
-use super::newton::{Kkt, Newton};
+use super::newton::{reduced_row, Extra, Kkt, Newton};
 use super::Reduced;
 use crate::solve::{SolveStatus, SolverSettings};
 
@@ -130,7 +130,7 @@ pub(super) fn iterate(p: &Reduced, settings: &SolverSettings) -> (Point, SolveSt
         };
 
         // Predictor, centering, corrector.
-        let affine = step.direction(&residuals, &step.affine_target());
+        let (affine, quadratic) = step.predictor(&residuals);
         let affine_steps = step.step_limits(&affine);
         let sigma = if linear {
             // Mehrotra's σ = (μ_aff / μ)³ with the affine step's own lengths.
@@ -148,7 +148,7 @@ pub(super) fn iterate(p: &Reduced, settings: &SolverSettings) -> (Point, SolveSt
             (1.0 - affine_steps.common().primal.min(1.0)).powi(3)
         };
         let mu = residuals.gap / barrier_degree(p);
-        let mut combined = step.direction(&residuals, &step.corrector_target(&affine, sigma * mu));
+        let mut combined = step.corrector(&residuals, &affine, quadratic, sigma * mu);
         if linear {
             combined = step.centrality_correctors(combined, sigma * mu);
         }
@@ -223,7 +223,11 @@ impl Progress {
     }
 }
 
-/// The residuals r_x = Gᵀz + c, r_z = G x + s − h, the objectives and the gap.
+/// The residuals r_x = Gᵀz + c, r_z = G x + s − h, the objectives and the
+/// gap; and, from the same pass over A, Aᵀ of two parts of the Newton
+/// right-hand sides' reduced rows ([`reduced_row`]) that depend only on
+/// the current point: the predictor's whole right-hand side, and the
+/// centring term of the corrector's per unit of σμ.
 struct Residuals {
     rx_y: DVector<f64>,
     rx_e: DVector<f64>,
@@ -235,11 +239,44 @@ struct Residuals {
     gap: f64,
     primal_ok_at: f64,
     dual_ok_at: f64,
+    /// The predictor's orthant part, formed in the residuals' pass.
+    affine: OrthantPart,
+    /// The corrector's centring part per unit of σμ: b_z = −1/z.
+    centring: OrthantPart,
 }
 
 impl Residuals {
     fn new(p: &Reduced, x: &Point) -> Self {
-        let (ay, mut rx_y) = p.a.mul_and_tr_mul(&x.y, &(&x.z2 - &x.z1));
+        // Row i of the predictor's right-hand side needs only (A y)ᵢ and the
+        // point (`affine_bz`), and the corrector's centring part only the
+        // point, so Aᵀ of both comes from this pass; the corrector's other
+        // part needs the predictor and comes from the predictor's pass.
+        let (ay, [mut rx_y, affine_product, centring_product]) =
+            p.a.mul_then_tr_mul_many(&x.y, |i, ay| {
+                let (z1, z2) = (x.z1[i], x.z2[i]);
+                let (d1, d2) = (z1 / x.s1[i], z2 / x.s2[i]);
+                let (bz1, bz2) = affine_bz(ay, x.e[i], p.t[i]);
+                [
+                    z2 - z1,
+                    reduced_row(d1, d2, -((-z1 - z2) + p.weight), bz1, bz2),
+                    reduced_row(d1, d2, 0.0, -1.0 / z1, -1.0 / z2),
+                ]
+            });
+        let r = ay.len();
+        let (mut bz1, mut bz2) = (DVector::zeros(r), DVector::zeros(r));
+        for i in 0..r {
+            (bz1[i], bz2[i]) = affine_bz(ay[i], x.e[i], p.t[i]);
+        }
+        let affine = OrthantPart {
+            z1: bz1,
+            z2: bz2,
+            product: affine_product,
+        };
+        let centring = OrthantPart {
+            z1: x.z1.map(|z| -1.0 / z),
+            z2: x.z2.map(|z| -1.0 / z),
+            product: centring_product,
+        };
         if p.g.nrows() > 0 {
             rx_y += p.side_rows.tr_mul(&p.g, &x.zc);
         }
@@ -265,7 +302,18 @@ impl Residuals {
             gap,
             primal_ok_at: (h_norm + x_norm + s_norm).max(1.0),
             dual_ok_at: (p.weight + x_norm + z_norm).max(1.0),
+            affine,
+            centring,
         }
+    }
+
+    /// The corrector's orthant part for the centre σμ: the predictor's,
+    /// plus the part the predictor determined, plus σμ times the centring
+    /// part.
+    fn corrector_part(&self, quadratic: &OrthantPart, centre: f64) -> OrthantPart {
+        self.affine
+            .plus_scaled(quadratic, 1.0)
+            .plus_scaled(&self.centring, centre)
     }
 
     fn primal_infeasibility(&self) -> f64 {
@@ -302,6 +350,43 @@ impl Residuals {
             self.primal_infeasibility(),
             self.dual_infeasibility()
         );
+    }
+}
+
+/// The predictor's b_z on the orthants: −r_z + s = (A y + e − t, −A y + e + t),
+/// without the round trip through s.
+fn affine_bz(ay: f64, e: f64, t: f64) -> (f64, f64) {
+    (ay + e - t, -ay + e + t)
+}
+
+/// Row i of the corrector's b_z that the predictor determines:
+/// Δs̃ᵢΔz̃ᵢ/zᵢ with Δz̃ = w dz, Δs̃ = ξ − Δz̃ and 1/z = w/λ.
+fn quadratic_bz(xi: f64, w: f64, lambda: f64, dz: f64) -> f64 {
+    let dz_scaled = w * dz;
+    (xi - dz_scaled) * dz_scaled * (w / lambda)
+}
+
+/// The orthants' part (b_z₁, b_z₂) of a Newton right-hand side, with Aᵀ of
+/// its reduced rows ([`reduced_row`], with b_e where it has one) formed in
+/// a pass over A the iteration makes anyway. The solve is then given both
+/// and skips its own pass; the values must be the very ones that pass
+/// used, since near the optimum D̃ reaches 1e9 and turns a last-bit
+/// difference between two ways of forming b_z into a residual that costs
+/// a refinement step.
+struct OrthantPart {
+    z1: DVector<f64>,
+    z2: DVector<f64>,
+    product: DVector<f64>,
+}
+
+impl OrthantPart {
+    /// self + `scale` · other: the reduced rows are linear in b_z.
+    fn plus_scaled(&self, other: &OrthantPart, scale: f64) -> OrthantPart {
+        OrthantPart {
+            z1: &self.z1 + &other.z1 * scale,
+            z2: &self.z2 + &other.z2 * scale,
+            product: &self.product + &other.product * scale,
+        }
     }
 }
 
@@ -450,10 +535,93 @@ impl<'a> Step<'a> {
         }
     }
 
+    /// The predictor: the direction for the target −λ∘λ, and the part of
+    /// the corrector's right-hand side it determines (b_z = Δs̃∘Δz̃ ⊘ z),
+    /// with Aᵀ of its reduced rows formed in the pass that checks the
+    /// predictor; `None` if a refinement step replaced that solution. The
+    /// predictor's own product comes from the residuals' pass.
+    fn predictor(&self, residuals: &Residuals) -> (Direction, Option<OrthantPart>) {
+        let target = self.affine_target();
+        let xi1 = target.s1.component_div(&self.lambda1);
+        let xi2 = target.s2.component_div(&self.lambda2);
+        let quadratic = |i: usize, dz1: f64, dz2: f64| {
+            (
+                quadratic_bz(xi1[i], self.w1[i], self.lambda1[i], dz1),
+                quadratic_bz(xi2[i], self.w2[i], self.lambda2[i], dz2),
+            )
+        };
+        let fused_row = |i: usize, dz1: f64, dz2: f64| {
+            let (q1, q2) = quadratic(i, dz1, dz2);
+            self.newton.reduced_row(i, 0.0, q1, q2)
+        };
+        let (direction, product) = self.direction_fused(
+            residuals,
+            &target,
+            Some(&residuals.affine),
+            Some(&fused_row),
+        );
+        let part = product.map(|product| {
+            let r = direction.z1.len();
+            let (mut z1, mut z2) = (DVector::zeros(r), DVector::zeros(r));
+            for i in 0..r {
+                (z1[i], z2[i]) = quadratic(i, direction.z1[i], direction.z2[i]);
+            }
+            OrthantPart { z1, z2, product }
+        });
+        (direction, part)
+    }
+
+    /// The corrector for the centre σμ after the predictor `affine`, whose
+    /// part of the right-hand side is `quadratic`: the orthants' b_z is the
+    /// predictor's, plus that part, plus σμ times the centring part, and so
+    /// is Aᵀ of the reduced rows. Without `quadratic` the solve makes its
+    /// own pass.
+    fn corrector(
+        &self,
+        residuals: &Residuals,
+        affine: &Direction,
+        quadratic: Option<OrthantPart>,
+        centre: f64,
+    ) -> Direction {
+        let target = self.corrector_target(affine, centre);
+        let known = quadratic.map(|quadratic| residuals.corrector_part(&quadratic, centre));
+        self.direction_fused(residuals, &target, known.as_ref(), None)
+            .0
+    }
+
     /// The Newton direction for a complementarity target: ξ = λ ⊘ d_s,
     /// bz = −r_z − Wᵀξ (on the side cones in the scaled space,
     /// W⁻ᵀbz = −W⁻ᵀr_z − ξ), and back ds = Wᵀ(ξ − W dz).
+    #[cfg(test)]
     fn direction(&self, residuals: &Residuals, target: &Target) -> Direction {
+        self.direction_fused(residuals, target, None, None).0
+    }
+
+    /// [`Step::direction`] with the passes over A it shares: `known`, the
+    /// orthants' part of the right-hand side with its product, formed in an
+    /// earlier pass (it equals the target's up to rounding); `extra`, a
+    /// further weight per row formed in the solve's check pass, whose Aᵀ is
+    /// returned ([`Newton::solve_fused`]).
+    fn direction_fused(
+        &self,
+        residuals: &Residuals,
+        target: &Target,
+        known: Option<&OrthantPart>,
+        extra: Option<&Extra<'_>>,
+    ) -> (Direction, Option<DVector<f64>>) {
+        let (mut rhs, xi) = self.right_hand_side(residuals, target);
+        if let Some(known) = known {
+            rhs.z1.copy_from(&known.z1);
+            rhs.z2.copy_from(&known.z2);
+        }
+        let product = known.map(|known| &known.product);
+        let (solution, fused) = self.newton.solve_fused(&rhs, product, extra);
+        (self.assemble(solution, xi, -&residuals.rzc), fused)
+    }
+
+    /// The Newton right-hand side for a complementarity target, and the
+    /// scaled targets ξ of the three cone blocks.
+    fn right_hand_side(&self, residuals: &Residuals, target: &Target) -> (Kkt, [DVector<f64>; 3]) {
         let segments = &self.problem.segments;
         let xi1 = target.s1.component_div(&self.lambda1);
         let xi2 = target.s2.component_div(&self.lambda2);
@@ -461,14 +629,14 @@ impl<'a> Step<'a> {
         let bz1 = -&residuals.rz1 - self.w1.component_mul(&xi1);
         let bz2 = -&residuals.rz2 - self.w2.component_mul(&xi2);
         let bzc = -self.scaling.apply_inverse_wt(segments, &residuals.rzc) - &xic;
-        let solution = self.newton.solve(&Kkt {
+        let rhs = Kkt {
             y: -&residuals.rx_y,
             e: -&residuals.rx_e,
             z1: bz1,
             z2: bz2,
             zc: bzc,
-        });
-        self.assemble(solution, [xi1, xi2, xic], -&residuals.rzc)
+        };
+        (rhs, [xi1, xi2, xic])
     }
 
     /// The direction from a Newton solution, the scaled targets ξ of the
@@ -690,6 +858,71 @@ fn initial_point(p: &Reduced, buffer: &mut Vec<f64>) -> Option<Point> {
 mod tests {
     use super::*;
     use crate::solve::dense::tests::{box_problem, random_regression, reduced};
+
+    /// The predictor and the corrector take parts of their right-hand
+    /// sides' products from passes the iteration makes anyway (the
+    /// residuals' pass, the predictor's check): both must equal the
+    /// directions solved from the whole right-hand side.
+    #[test]
+    fn fused_right_hand_sides_give_the_same_directions() {
+        let p = reduced(&box_problem(random_regression(400, 6, 11), 10.0));
+        let mut x = initial_point(&p, &mut Vec::new()).unwrap();
+        // Away from the starting point, where the products are uneven.
+        x.z1.iter_mut()
+            .enumerate()
+            .for_each(|(i, z)| *z *= 1.0 + (i % 7) as f64);
+        x.s2.iter_mut()
+            .enumerate()
+            .for_each(|(i, s)| *s *= 1.0 + (i % 5) as f64 * 0.3);
+        let residuals = Residuals::new(&p, &x);
+        let scaling = SideScaling::new(&p.segments, &x.sc, &x.zc).unwrap();
+        let step = Step::new(&p, &x, &scaling, &mut Vec::new()).unwrap();
+        let (affine, quadratic) = step.predictor(&residuals);
+        let plain = step.direction(&residuals, &step.affine_target());
+        let centre = 0.3 * residuals.gap / barrier_degree(&p);
+        // The parts formed in earlier passes are the right-hand sides' own
+        // b_z, and their products Aᵀ of the reduced rows: a wrong one would
+        // only cost refinement steps, so check them directly.
+        let check = |part: &OrthantPart, target: &Target| {
+            let (rhs, _) = step.right_hand_side(&residuals, target);
+            let rows = DVector::from_fn(rhs.e.len(), |i, _| {
+                step.newton.reduced_row(i, rhs.e[i], rhs.z1[i], rhs.z2[i])
+            });
+            let pairs = [
+                (&part.z1, &rhs.z1),
+                (&part.z2, &rhs.z2),
+                (&part.product, &p.a.tr_mul(&rows)),
+            ];
+            for (got, want) in pairs {
+                let error = (got - want).amax() / want.amax();
+                assert!(error < 1e-10, "relative error {error}");
+            }
+        };
+        check(&residuals.affine, &step.affine_target());
+        let corrector_target = step.corrector_target(&affine, centre);
+        let quadratic = quadratic.expect("the predictor's solve was refined");
+        check(
+            &residuals.corrector_part(&quadratic, centre),
+            &corrector_target,
+        );
+        let quadratic = Some(quadratic);
+        let corrector = step.corrector(&residuals, &affine, quadratic, centre);
+        let plain_corrector = step.direction(&residuals, &corrector_target);
+        for (a, b) in [(&affine, &plain), (&corrector, &plain_corrector)] {
+            for (u, v) in [(&a.y, &b.y), (&a.e, &b.e), (&a.z1, &b.z1), (&a.z2, &b.z2)] {
+                let scale = v.amax().max(1.0);
+                assert!(
+                    (u - v).amax() <= 1e-9 * scale,
+                    "{} vs {}",
+                    v.amax(),
+                    (u - v).amax()
+                );
+            }
+        }
+        // The corrector differs from the predictor: the test would see a
+        // missing part.
+        assert!((&corrector.y - &affine.y).amax() > 1e-6);
+    }
 
     /// A corrector is solved as the change of the direction when only the
     /// orthants' targets change, with a right-hand side that is zero but in

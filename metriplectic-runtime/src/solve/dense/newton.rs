@@ -201,22 +201,40 @@ impl<'a> Newton<'a> {
     /// right-hand side, it goes on with the orthogonal factor (built once
     /// per Newton system), and the smaller residual's solution is returned.
     pub fn solve(&self, rhs: &Kkt) -> Kkt {
+        self.solve_fused(rhs, None, None).0
+    }
+
+    /// [`Newton::solve`] sharing passes over A with the iteration.
+    /// `known` is Aᵀ of the right-hand side's reduced rows
+    /// ([`reduced_row`]), when the pass that formed the right-hand side
+    /// already computed it. `extra`(i, dz₁ᵢ, dz₂ᵢ) is a further weight of row
+    /// i, formed from the solution in the pass that checks it; Aᵀ of those
+    /// weights is returned when that solution is the one returned (no
+    /// refinement step was kept), since only then do they belong to it.
+    pub fn solve_fused(
+        &self,
+        rhs: &Kkt,
+        known: Option<&DVector<f64>>,
+        extra: Option<&Extra<'_>>,
+    ) -> (Kkt, Option<DVector<f64>>) {
         let scale = rhs.amax();
         let enough = REFINEMENT_ABSOLUTE + REFINEMENT_RELATIVE * scale;
-        let first = self.solve_reduced(&self.schur, rhs, None);
-        let refined = self.refine(&self.schur, rhs, first, enough);
+        let (solution, products, floor, fused) =
+            self.solve_reduced(&self.schur, rhs, None, known, extra);
+        let refined = self.refine(&self.schur, rhs, (solution, products, floor), enough);
+        let fused = fused.filter(|_| !refined.changed);
         // A Newton direction this close is good enough for the iteration;
         // the orthogonal factor is for solves the formed factor got wrong.
         let close = enough + ORTHOGONAL_FALLBACK * scale;
         if refined.size <= close || refined.size.is_nan() {
-            return refined.solution;
+            return (refined.solution, fused);
         }
         let Some(orthogonal) = self
             .orthogonal
             .get_or_init(|| self.orthogonal_factor())
             .as_ref()
         else {
-            return refined.solution;
+            return (refined.solution, fused);
         };
         let start = (
             refined.solution.clone(),
@@ -225,9 +243,9 @@ impl<'a> Newton<'a> {
         );
         let again = self.refine(orthogonal, rhs, start, enough);
         if again.size < refined.size {
-            again.solution
+            (again.solution, None)
         } else {
-            refined.solution
+            (refined.solution, fused)
         }
     }
 
@@ -240,13 +258,15 @@ impl<'a> Newton<'a> {
         enough: f64,
     ) -> Refined {
         let (mut solution, mut products, floor) = start;
+        let mut changed = false;
         let mut residual = rhs.minus(&self.apply(&solution, &products));
         let mut size = residual.amax();
         for _ in 0..MAX_REFINEMENT {
             if size <= enough || size.is_nan() {
                 break;
             }
-            let (correction, change, _) = self.solve_reduced(factor, &residual, Some(floor));
+            let (correction, change, _, _) =
+                self.solve_reduced(factor, &residual, Some(floor), None, None);
             let candidate = solution.plus(&correction);
             // The operator is linear, so the candidate's products are the sum.
             let candidate_products = products.plus(&change);
@@ -258,6 +278,7 @@ impl<'a> Newton<'a> {
             }
             let halved = next_size < 0.5 * size;
             (solution, products, residual, size) = (candidate, candidate_products, next, next_size);
+            changed = true;
             if !halved {
                 break;
             }
@@ -267,6 +288,7 @@ impl<'a> Newton<'a> {
             products,
             floor,
             size,
+            changed,
         }
     }
 
@@ -325,26 +347,34 @@ impl<'a> Newton<'a> {
     /// residual then tells whether anything is left to refine, and each
     /// refinement step solves the Schur system by CG down to `floor`
     /// (`SCHUR_TOLERANCE` times the first right-hand side, returned).
+    /// `known` and `extra` as in [`Newton::solve_fused`]; the last value
+    /// is Aᵀ of `extra`'s weights.
     fn solve_reduced(
         &self,
         factor: &ScaledCholesky,
         b: &Kkt,
         floor: Option<f64>,
-    ) -> (Kkt, Products, f64) {
+        known: Option<&DVector<f64>>,
+        extra: Option<&Extra<'_>>,
+    ) -> (Kkt, Products, f64, Option<DVector<f64>>) {
         let p = self.problem;
-        let d1b = self.d1.component_mul(&b.z1);
-        let d2b = self.d2.component_mul(&b.z2);
         let sum = &self.d1 + &self.d2;
         let diff = &self.d1 - &self.d2;
-        let rhs_e = &b.e - &d1b - &d2b;
-        let ratio = diff.component_div(&sum);
-        let rows = &d2b - &d1b - ratio.component_mul(&rhs_e);
-        // A corrector's right-hand side is non-zero in a few dozen rows.
-        let product = if rows.iter().filter(|v| **v != 0.0).count() * SPARSE_FRACTION <= rows.len()
-        {
-            p.a.tr_mul_sparse(&rows)
-        } else {
-            p.a.tr_mul(&rows)
+        let rhs_e = &b.e - self.d1.component_mul(&b.z1) - self.d2.component_mul(&b.z2);
+        let product = match known {
+            Some(product) => product.clone(),
+            None => {
+                let rows = DVector::from_fn(b.e.len(), |i, _| {
+                    reduced_row(self.d1[i], self.d2[i], b.e[i], b.z1[i], b.z2[i])
+                });
+                // A corrector's right-hand side is non-zero in a few dozen rows.
+                let nonzero = rows.iter().filter(|v| **v != 0.0).count();
+                if nonzero * SPARSE_FRACTION <= rows.len() {
+                    p.a.tr_mul_sparse(&rows)
+                } else {
+                    p.a.tr_mul(&rows)
+                }
+            }
         };
         let mut rhs_y = &b.y + product;
         if p.g.nrows() > 0 {
@@ -363,10 +393,22 @@ impl<'a> Newton<'a> {
             let z2 = self.d2[i] * (ady - de - b.z2[i]);
             (de, z1, z2)
         };
-        let (ady, at_z) = p.a.mul_then_tr_mul(&dy, |i, ady| {
-            let (_, z1, z2) = orthants(i, ady);
-            z2 - z1
-        });
+        let (ady, at_z, fused) = match extra {
+            Some(extra) => {
+                let (ady, [at_z, fused]) = p.a.mul_then_tr_mul_many(&dy, |i, ady| {
+                    let (_, z1, z2) = orthants(i, ady);
+                    [z2 - z1, extra(i, z1, z2)]
+                });
+                (ady, at_z, Some(fused))
+            }
+            None => {
+                let (ady, at_z) = p.a.mul_then_tr_mul(&dy, |i, ady| {
+                    let (_, z1, z2) = orthants(i, ady);
+                    z2 - z1
+                });
+                (ady, at_z, None)
+            }
+        };
         let r = ady.len();
         let (mut de, mut z1, mut z2) = (DVector::zeros(r), DVector::zeros(r), DVector::zeros(r));
         for (i, &value) in ady.iter().enumerate() {
@@ -385,17 +427,43 @@ impl<'a> Newton<'a> {
             z2,
             zc,
         };
-        (solution, Products { ay: ady, at_z }, floor)
+        (solution, Products { ay: ady, at_z }, floor, fused)
+    }
+
+    /// [`reduced_row`] of row i with this system's weights.
+    pub fn reduced_row(&self, i: usize, e: f64, z1: f64, z2: f64) -> f64 {
+        reduced_row(self.d1[i], self.d2[i], e, z1, z2)
     }
 }
 
+/// A weight of row i formed from a solution's multiplier directions
+/// (i, dz₁ᵢ, dz₂ᵢ), see [`Newton::solve_fused`].
+pub(super) type Extra<'a> = dyn Fn(usize, f64, f64) -> f64 + Sync + 'a;
+
+/// Row i of the L1 block's part of the Schur system's right-hand side:
+/// eliminating de and dz₁, dz₂ from the right-hand side (b_e, b_z₁, b_z₂)
+/// of that row leaves this weight, and the Schur right-hand side is
+/// b_y + Aᵀ(weights) (+ the side cones' part). It is linear in
+/// (b_e, b_z₁, b_z₂), so the iteration can form Aᵀ of a right-hand side's
+/// parts in passes over A it makes anyway. `d1`, `d2` are z/s of the two
+/// orthants.
+pub(super) fn reduced_row(d1: f64, d2: f64, e: f64, z1: f64, z2: f64) -> f64 {
+    // d₂b₂ − d₁b₁ − (d₁ − d₂)/(d₁ + d₂)·(b_e − d₁b₁ − d₂b₂), without the
+    // cancellation of the d₁b₁ terms that form loses when d₁ ≫ d₂.
+    let sum = d1 + d2;
+    2.0 * d1 * d2 / sum * (z2 - z1) - (d1 - d2) / sum * e
+}
+
 /// The end of iterative refinement: the solution, its products, the Schur
-/// solves' floor and the KKT residual's largest entry.
+/// solves' floor, the KKT residual's largest entry and whether refinement
+/// changed the solution.
 struct Refined {
     solution: Kkt,
     products: Products,
     floor: f64,
     size: f64,
+    /// Whether a refinement step was kept.
+    changed: bool,
 }
 
 /// The products with A of a Newton solution (dy, dz): A dy and
