@@ -388,8 +388,14 @@ impl Cholesky {
     /// Factorises `m` (its lower triangle is read); `None` if a pivot is
     /// not positive.
     pub(crate) fn new(m: &DMatrix<f64>) -> Option<Self> {
+        Self::in_place(m.clone()).ok()
+    }
+
+    /// Factorises `m` in its own storage (its lower triangle is read).
+    /// If a pivot is not positive, `m` comes back overwritten (faer writes
+    /// both triangles as it goes), to be refilled rather than reallocated.
+    pub(crate) fn in_place(mut m: DMatrix<f64>) -> Result<Self, DMatrix<f64>> {
         let n = m.nrows();
-        let mut l = m.clone();
         let par = parallelism((n * n * n) as f64 / 3.0);
         let mut memory = MemBuffer::new(
             faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
@@ -399,7 +405,7 @@ impl Cholesky {
             ),
         );
         let factored = faer::linalg::cholesky::llt::factor::cholesky_in_place(
-            view_mut(&mut l),
+            view_mut(&mut m),
             Default::default(),
             par,
             MemStack::new(&mut memory),
@@ -408,15 +414,15 @@ impl Cholesky {
         // Every entry of L's row i enters its pivot, d_i = m_ii − Σⱼ l_ij²,
         // and faer rejects a pivot that is not positive (NaN included), so
         // a finite diagonal means a finite factor.
-        if factored.is_err() || !(0..n).all(|i| l[(i, i)].is_finite()) {
-            return None;
+        if factored.is_err() || !(0..n).all(|i| m[(i, i)].is_finite()) {
+            return Err(m);
         }
         for j in 0..n {
             for i in 0..j {
-                l[(i, j)] = 0.0;
+                m[(i, j)] = 0.0;
             }
         }
-        Some(Self { l })
+        Ok(Self { l: m })
     }
 
     /// The factor of MᵀM for the `rows` × `n` matrix M whose row i
