@@ -33,6 +33,7 @@ mod equalities;
 mod equilibrate;
 mod iteration;
 mod newton;
+mod side_rows;
 
 use std::time::Instant;
 
@@ -40,6 +41,7 @@ use nalgebra::{DMatrix, DVector};
 
 use cones::Segment;
 use equalities::Elimination;
+use side_rows::SideRows;
 
 use crate::error::Result;
 use crate::solve::linalg::RowMajor;
@@ -59,74 +61,6 @@ struct Reduced {
     side_rows: SideRows,
     /// Objective weight w of Σ e.
     weight: f64,
-}
-
-/// The side-cone rows split by how their part of the Schur complement,
-/// G̃ᵀ G̃, is best formed: orthant rows with few non-zeros (a box on the
-/// coefficients has one) as sparse outer products, since their scaling is
-/// diagonal and keeps the pattern; all others in one dense Gram product.
-/// For the entropy search's box on 923 coefficients the dense product
-/// would cost 13% of an iteration.
-struct SideRows {
-    /// Row index and the columns of its non-zeros.
-    sparse: Vec<(usize, Vec<usize>)>,
-    dense: Vec<usize>,
-}
-
-impl SideRows {
-    /// A row is sparse with at most one non-zero in `SPARSE_FRACTION` columns.
-    const SPARSE_FRACTION: usize = 16;
-
-    fn new(g: &DMatrix<f64>, segments: &[Segment]) -> Self {
-        let mut rows = Self {
-            sparse: Vec::new(),
-            dense: Vec::new(),
-        };
-        for segment in segments {
-            for i in segment.range() {
-                let nonzeros: Vec<usize> = (0..g.ncols()).filter(|&j| g[(i, j)] != 0.0).collect();
-                if segment.psd.is_none() && nonzeros.len() * Self::SPARSE_FRACTION <= g.ncols() {
-                    rows.sparse.push((i, nonzeros));
-                } else {
-                    rows.dense.push(i);
-                }
-            }
-        }
-        rows
-    }
-
-    /// G v for a G with this pattern (G or G̃: the orthant scaling is
-    /// diagonal and keeps it).
-    fn mul(&self, g: &DMatrix<f64>, v: &DVector<f64>) -> DVector<f64> {
-        if self.sparse.is_empty() {
-            return g * v;
-        }
-        let mut out = DVector::zeros(g.nrows());
-        for (i, columns) in &self.sparse {
-            out[*i] = columns.iter().map(|&j| g[(*i, j)] * v[j]).sum();
-        }
-        for &i in &self.dense {
-            out[i] = g.row(i).transpose().dot(v);
-        }
-        out
-    }
-
-    /// Gᵀ w for a G with this pattern.
-    fn tr_mul(&self, g: &DMatrix<f64>, w: &DVector<f64>) -> DVector<f64> {
-        if self.sparse.is_empty() {
-            return g.tr_mul(w);
-        }
-        let mut out = DVector::zeros(g.ncols());
-        for (i, columns) in &self.sparse {
-            for &j in columns {
-                out[j] += g[(*i, j)] * w[*i];
-            }
-        }
-        for &i in &self.dense {
-            out += g.row(i).transpose() * w[i];
-        }
-        out
-    }
 }
 
 /// Solves `problem` (see the module docs).

@@ -18,9 +18,10 @@ use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::solve::linalg::{gram, Cholesky};
+use crate::solve::linalg::Cholesky;
 
 use super::cones::SideScaling;
+use super::side_rows::ScaledSideRows;
 use super::Reduced;
 
 /// A right-hand side or solution of the KKT system: the x part (y, e) and
@@ -87,7 +88,7 @@ impl Kkt {
 pub(super) struct Newton<'a> {
     problem: &'a Reduced,
     /// G̃ = W⁻ᵀ G, the side-cone rows in the scaled space.
-    scaled_g: DMatrix<f64>,
+    scaled_g: ScaledSideRows<'a>,
     /// z/s of the two L1 orthants.
     d1: DVector<f64>,
     d2: DVector<f64>,
@@ -112,7 +113,8 @@ impl<'a> Newton<'a> {
         d2: DVector<f64>,
         buffer: &mut Vec<f64>,
     ) -> Option<Self> {
-        let scaled_g = scaling.apply_inverse_wt_columns(&problem.segments, &problem.g);
+        let scaled_g =
+            ScaledSideRows::new(&problem.side_rows, &problem.g, &problem.segments, scaling);
         let weights = DVector::from_iterator(
             d1.len(),
             d1.iter().zip(d2.iter()).map(|(a, b)| 4.0 * a * b / (a + b)),
@@ -136,8 +138,7 @@ impl<'a> Newton<'a> {
         let p = self.problem;
         let (_, mut out) = p.a.mul_then_tr_mul(v, |i, av| self.weights[i] * av);
         if self.scaled_g.nrows() > 0 {
-            let rows = &self.problem.side_rows;
-            out += rows.tr_mul(&self.scaled_g, &rows.mul(&self.scaled_g, v));
+            out += self.scaled_g.tr_mul(&self.scaled_g.mul(v));
         }
         out
     }
@@ -306,12 +307,9 @@ impl<'a> Newton<'a> {
                     *out = weight * value * s;
                 }
             } else {
-                for ((out, value), s) in row
-                    .iter_mut()
-                    .zip(self.scaled_g.row(i - r).iter())
-                    .zip(scale.iter())
-                {
-                    *out = value * s;
+                self.scaled_g.write_row(i - r, row);
+                for (out, s) in row.iter_mut().zip(scale.iter()) {
+                    *out *= s;
                 }
             }
         })?;
@@ -330,8 +328,8 @@ impl<'a> Newton<'a> {
         let mut y = products.at_z.clone();
         let mut zc = DVector::zeros(0);
         if p.g.nrows() > 0 {
-            y += p.side_rows.tr_mul(&self.scaled_g, &v.zc);
-            zc = p.side_rows.mul(&self.scaled_g, &v.y) - &v.zc;
+            y += self.scaled_g.tr_mul(&v.zc);
+            zc = self.scaled_g.mul(&v.y) - &v.zc;
         }
         Kkt {
             y,
@@ -379,7 +377,7 @@ impl<'a> Newton<'a> {
         };
         let mut rhs_y = &b.y + product;
         if p.g.nrows() > 0 {
-            rhs_y += p.side_rows.tr_mul(&self.scaled_g, &b.zc);
+            rhs_y += self.scaled_g.tr_mul(&b.zc);
         }
         let (dy, floor) = match floor {
             Some(floor) => (self.solve_schur(factor, &rhs_y, floor), floor),
@@ -417,7 +415,7 @@ impl<'a> Newton<'a> {
         }
         // ũ = G̃ dy − bz̃ on the side cones.
         let zc = if p.g.nrows() > 0 {
-            p.side_rows.mul(&self.scaled_g, &dy) - &b.zc
+            self.scaled_g.mul(&dy) - &b.zc
         } else {
             DVector::zeros(0)
         };
@@ -487,27 +485,12 @@ impl Products {
 /// Aᵀ D̃ A + G̃ᵀ G̃, both Gram products (symmetric by construction).
 fn schur_complement(
     problem: &Reduced,
-    scaled_g: &DMatrix<f64>,
+    scaled_g: &ScaledSideRows,
     weights: &DVector<f64>,
     buffer: &mut Vec<f64>,
 ) -> DMatrix<f64> {
     let mut schur = problem.a.weighted_gram(weights, buffer);
-    let rows = &problem.side_rows;
-    if rows.dense.len() == scaled_g.nrows() {
-        if !rows.dense.is_empty() {
-            schur += gram(scaled_g);
-        }
-    } else if !rows.dense.is_empty() {
-        schur += gram(&scaled_g.select_rows(&rows.dense));
-    }
-    for (i, columns) in &rows.sparse {
-        for &j in columns {
-            let gj = scaled_g[(*i, j)];
-            for &l in columns {
-                schur[(j, l)] += gj * scaled_g[(*i, l)];
-            }
-        }
-    }
+    scaled_g.add_gram(&mut schur);
     schur
 }
 
