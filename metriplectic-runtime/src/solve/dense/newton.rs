@@ -144,21 +144,27 @@ impl<'a> Newton<'a> {
     }
 
     /// dy with S dy = b: conjugate gradients on S preconditioned by the
-    /// factor of the formed S. When the data are fitted exactly, every L1
+    /// factor of the formed S, from the factor's own solution `x` and its
+    /// residual `r` = b − S x. When the data are fitted exactly, every L1
     /// residual is active and D̃ spans many orders of magnitude; the formed
     /// S then loses the directions only the side cones determine, and
     /// iterative refinement with its factor diverges, but as a
     /// preconditioner it still clusters the spectrum and CG converges in a
     /// few steps. Usually the factor's solution, or one CG step from it,
-    /// is already at the product's rounding level.
-    fn solve_schur(&self, factor: &ScaledCholesky, b: &DVector<f64>, floor: f64) -> DVector<f64> {
-        let mut x = factor.solve(b);
-        let mut r = b - self.schur_product(&x);
+    /// is already at the product's rounding level; `None` when it is, so
+    /// the caller keeps the products it formed with r.
+    fn conjugate_gradients(
+        &self,
+        factor: &ScaledCholesky,
+        mut x: DVector<f64>,
+        mut r: DVector<f64>,
+        floor: f64,
+    ) -> Option<DVector<f64>> {
         // Below the rounding error of the product S x there is nothing to gain.
         let floor = floor.max(f64::EPSILON * factor.largest * x.amax());
         let mut best = (r.amax(), x.clone());
         if best.0 <= floor || best.0.is_nan() {
-            return x;
+            return None;
         }
         let mut z = factor.solve(&r);
         let mut direction = z.clone();
@@ -188,7 +194,7 @@ impl<'a> Newton<'a> {
             direction = &z + &direction * (rz_next / rz);
             rz = rz_next;
         }
-        best.1
+        Some(best.1)
     }
 
     /// Solves [0 G̃ᵀ; G̃ −I][dx; dz̃] = [bx; bz̃] for x = (y, e), z̃ = (z₁, z₂, ũ)
@@ -345,7 +351,9 @@ impl<'a> Newton<'a> {
     /// right-hand side uses the factor alone (`floor` `None`); its KKT
     /// residual then tells whether anything is left to refine, and each
     /// refinement step solves the Schur system by CG down to `floor`
-    /// (`SCHUR_TOLERANCE` times the first right-hand side, returned).
+    /// (`SCHUR_TOLERANCE` times the first right-hand side, returned),
+    /// starting from the factor's solution, whose products come from the
+    /// pass that forms CG's first residual.
     /// `known` and `extra` as in [`Newton::solve_fused`]; the last value
     /// is Aᵀ of `extra`'s weights.
     fn solve_reduced(
@@ -379,10 +387,6 @@ impl<'a> Newton<'a> {
         if p.g.nrows() > 0 {
             rhs_y += self.scaled_g.tr_mul(&b.zc);
         }
-        let (dy, floor) = match floor {
-            Some(floor) => (self.solve_schur(factor, &rhs_y, floor), floor),
-            None => (factor.solve(&rhs_y), SCHUR_TOLERANCE * rhs_y.amax()),
-        };
         // Row by row: de from A dy, then dz = D (G dx − bz) on the orthants
         // with G = [[−A, −I]; [A, −I]]. The same formulas give Aᵀ(dz₂ − dz₁)
         // in the pass that forms A dy.
@@ -392,20 +396,46 @@ impl<'a> Newton<'a> {
             let z2 = self.d2[i] * (ady - de - b.z2[i]);
             (de, z1, z2)
         };
-        let (ady, at_z, fused) = match extra {
-            Some(extra) => {
+        let products = |dy: &DVector<f64>| {
+            p.a.mul_then_tr_mul(dy, |i, ady| {
+                let (_, z1, z2) = orthants(i, ady);
+                z2 - z1
+            })
+        };
+        let dy = factor.solve(&rhs_y);
+        let (dy, floor, ady, at_z, fused) = match (floor, extra) {
+            (None, Some(extra)) => {
                 let (ady, [at_z, fused]) = p.a.mul_then_tr_mul_many(&dy, |i, ady| {
                     let (_, z1, z2) = orthants(i, ady);
                     [z2 - z1, extra(i, z1, z2)]
                 });
-                (ady, at_z, Some(fused))
+                let floor = SCHUR_TOLERANCE * rhs_y.amax();
+                (dy, floor, ady, at_z, Some(fused))
             }
-            None => {
-                let (ady, at_z) = p.a.mul_then_tr_mul(&dy, |i, ady| {
+            (None, None) => {
+                let (ady, at_z) = products(&dy);
+                (dy, SCHUR_TOLERANCE * rhs_y.amax(), ady, at_z, None)
+            }
+            (Some(floor), _) => {
+                // The pass that forms S dy for CG's first residual forms
+                // the solution's products too; they are kept when CG stops
+                // there, as it almost always does.
+                let (ady, [schur_part, at_z]) = p.a.mul_then_tr_mul_many(&dy, |i, ady| {
                     let (_, z1, z2) = orthants(i, ady);
-                    z2 - z1
+                    [self.weights[i] * ady, z2 - z1]
                 });
-                (ady, at_z, None)
+                let mut product = schur_part;
+                if self.scaled_g.nrows() > 0 {
+                    product += self.scaled_g.tr_mul(&self.scaled_g.mul(&dy));
+                }
+                let residual = &rhs_y - product;
+                match self.conjugate_gradients(factor, dy.clone(), residual, floor) {
+                    None => (dy, floor, ady, at_z, None),
+                    Some(dy) => {
+                        let (ady, at_z) = products(&dy);
+                        (dy, floor, ady, at_z, None)
+                    }
+                }
             }
         };
         let r = ady.len();
