@@ -295,7 +295,9 @@ pub struct Summary {
     pub train_equations: usize,
     /// Seed of the split and the identifier.
     pub seed: u64,
-    /// Iterations run (the final full-batch polish is not counted).
+    /// Iterations run, a full-batch run's warm-up on the start's subsample
+    /// included (the final full-batch polish of a minibatch run is not
+    /// counted).
     pub iterations: usize,
     /// Why the identification stopped (`Converged`, `Stagnated`, …).
     pub stop_reason: String,

@@ -70,6 +70,20 @@ pub struct IdentifyConfig {
     /// from the truth, whose interior-point iterations grow with the data.
     /// `usize::MAX` fits it on every sample. Default 2000.
     pub start_samples: usize,
+    /// Full-batch runs on more samples than the start's subsample
+    /// ([`start_samples`](Self::start_samples)) first iterate on that
+    /// subsample, while each iteration at least halves its cost (or until
+    /// it fits to [`tolerance`](Self::tolerance)), then on all the data from
+    /// the model reached. The first iterations, whose metric is still far
+    /// from the truth, solve the degenerate programs whose interior-point
+    /// iterations grow with the data; on the subsample they cost a fixed
+    /// amount, and the iterations on all the data start near their
+    /// optimum. The warm-up's iterations are in the history
+    /// ([`IterationRecord::warm_up`](crate::IterationRecord::warm_up)), seen
+    /// by the observer and counted by
+    /// [`max_iterations`](Self::max_iterations), which always leaves one
+    /// iteration on all the data. Default `true`.
+    pub warm_up: bool,
     /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite, and
     /// against the support and gauge of [`search`](Self::search)).
     /// Default `None`: the identity metric, scaled to the gauge if one is set.
@@ -167,6 +181,7 @@ impl Default for IdentifyConfig {
             seed: 0,
             initial_entropy: None,
             start_samples: 2000,
+            warm_up: true,
             initial_metric: None,
             search: SearchOptions::default(),
             max_failed_iterations: 3,

@@ -8,7 +8,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::checkpoint;
-use super::config::{IdentifyConfig, IterationScheme, Validation};
+use super::config::{IdentifyConfig, IterationScheme, Stagnation, Validation};
 use super::cost::{model_cost, Cost};
 use super::history::{
     History, IterationRecord, JointStepRecord, StepOutcome, StepRecord, StopReason,
@@ -60,6 +60,16 @@ pub struct Identification<S: MetriplecticSystem> {
 /// adaptive trust region ([`joint_step`]), accepted under the same
 /// rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
 /// optimal, the pair not jointly stationary); the joint step removes that.
+///
+/// # Warm-up
+///
+/// A full-batch run on more samples than the start's subsample
+/// ([`IdentifyConfig::start_samples`], 2000 by default) takes its first
+/// iterations on that subsample, while each halves its cost, and then
+/// iterates on all the data from the model reached
+/// ([`IdentifyConfig::warm_up`]): the early iterations, with the metric far
+/// from the truth, are the costly ones, and on exact data of a 6-state
+/// system at q = 16000 the whole run took 54 s instead of 271 s.
 ///
 /// # Stopping
 ///
@@ -151,26 +161,101 @@ where
         Some(metric) => metric.clone(),
         None => default_start_metric::<S>(&config.search)?,
     };
+    let sample = start_sample::<S, _>(&split.pool, config)?;
     let entropy = match &config.initial_entropy {
         Some(entropy) => entropy.clone(),
-        None => fitted_start::<S>(&split.pool, config, &metric)?,
+        None => fitted_start::<S>(sample.as_ref().unwrap_or(&split.pool), config, &metric)?,
     };
-    let model = Model::<S>::new(entropy, metric)?;
-    let state = RunState {
-        model,
-        history: History::default(),
-        rng: ChaCha8Rng::seed_from_u64(config.seed),
-        failed_in_a_row: 0,
-        ever_accepted: false,
-        radius: match &config.scheme {
-            IterationScheme::AlternatingThenJoint(trust) => trust.initial_radius,
-            IterationScheme::Alternating => 0.0,
-        },
-        stopped: None,
-        best: None,
-        since_improvement: 0,
+    let state = RunState::start(Model::<S>::new(entropy, metric)?, config);
+    let mut observer = observer;
+    let state = match sample {
+        Some(sample)
+            if config.batch_size.is_none() && config.warm_up && config.max_iterations > 1 =>
+        {
+            warm_up(&sample, config, state, &mut observer)?
+        }
+        _ => state,
     };
+    if state.stopped == Some(StopReason::Interrupted) {
+        return finish(data, config, &split, state);
+    }
     run(data, config, &split, state, observer)
+}
+
+impl<S: MetriplecticSystem> RunState<S> {
+    /// A run about to take its first iteration from `model`.
+    fn start(model: Model<S>, config: &IdentifyConfig) -> Self {
+        Self {
+            model,
+            history: History::default(),
+            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            failed_in_a_row: 0,
+            ever_accepted: false,
+            radius: match &config.scheme {
+                IterationScheme::AlternatingThenJoint(trust) => trust.initial_radius,
+                IterationScheme::Alternating => 0.0,
+            },
+            stopped: None,
+            best: None,
+            since_improvement: 0,
+        }
+    }
+}
+
+/// A warm-up iteration continues only while it divides the subsample's cost
+/// by at least this much: exact data fall by orders of magnitude per
+/// iteration until they fit, noisy data stop improving after one or two,
+/// and their run on all the data needs its own iterations anyway.
+const WARM_UP_PROGRESS: f64 = 0.5;
+
+/// The warm-up of a full-batch run ([`IdentifyConfig::warm_up`]): iterations
+/// on the start's subsample `sample`, recorded and observed as the run's
+/// first, while each halves its cost, to the tolerance or to all but one of
+/// the iteration budget. Returns the state the run on all the data starts
+/// from: the model reached, the trust radius, the warm-up's records, and
+/// nothing of its scores (those were on the subsample). If no step of the
+/// warm-up could be solved, the run starts from `state` as it was.
+fn warm_up<S, D, F>(
+    sample: &D,
+    config: &IdentifyConfig,
+    state: RunState<S>,
+    observer: &mut F,
+) -> Result<RunState<S>>
+where
+    S: MetriplecticSystem,
+    D: IdentificationData,
+    F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
+{
+    let phase = IdentifyConfig {
+        max_iterations: config.max_iterations - 1,
+        stagnation: Some(Stagnation {
+            window: 1,
+            relative_improvement: WARM_UP_PROGRESS,
+        }),
+        checkpoint: None,
+        ..config.clone()
+    };
+    let split = Split::new(sample, &phase)?;
+    let start = state.model.clone();
+    // A stop asked for in the warm-up ends the run, even in an iteration
+    // that also ended the warm-up by converging.
+    let mut interrupted = false;
+    let mut watch = |record: &IterationRecord, model: &Model<S>| {
+        let flow = observer(record, model);
+        interrupted |= flow.is_break();
+        flow
+    };
+    match iterate(sample, &phase, &split, state, &mut watch, true) {
+        Ok(warm) => Ok(RunState {
+            history: warm.history,
+            radius: warm.radius,
+            ever_accepted: warm.ever_accepted,
+            stopped: interrupted.then_some(StopReason::Interrupted),
+            ..RunState::start(warm.model, config)
+        }),
+        Err(Error::IdentificationFailed { .. }) => Ok(RunState::start(start, config)),
+        Err(error) => Err(error),
+    }
 }
 
 /// The default start metric: the identity, or for a classical system
@@ -303,25 +388,11 @@ impl<D: IdentificationData> Split<D> {
 /// (Π + K)∇H to the data, where the best K is often near 0, and with K ≈ 0
 /// the entropy search has nothing to act on.
 fn fitted_start<S: MetriplecticSystem>(
-    pool: &impl IdentificationData,
+    batch: &impl IdentificationData,
     config: &IdentifyConfig,
     metric: &[f64],
 ) -> Result<Vec<f64>> {
-    let available = pool.equation_count();
-    // Ten equations per coefficient keep the start's L1 fit overdetermined.
-    let enough = (10 * S::entropy_coefficient_count()).div_ceil(S::DIM);
-    let wanted = config
-        .batch_size
-        .unwrap_or(available)
-        .min(config.start_samples.max(enough));
-    let batch = if wanted < available {
-        let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x57a7_0f5e_a7c4_0000);
-        let indices = rand::seq::index::sample(&mut rng, available, wanted).into_vec();
-        Some(pool.select(&indices)?)
-    } else {
-        None
-    };
-    let search = entropy_search::<S>(batch.as_ref().unwrap_or(pool), metric, &config.search)?;
+    let search = entropy_search::<S>(batch, metric, &config.search)?;
     let usable =
         search.report.status.is_usable() && search.coefficients.iter().all(|c| c.is_finite());
     Ok(if usable {
@@ -329,6 +400,30 @@ fn fitted_start<S: MetriplecticSystem>(
     } else {
         vec![0.0; S::entropy_coefficient_count()]
     })
+}
+
+/// The start's subsample of the batch pool: at most
+/// [`start_samples`](IdentifyConfig::start_samples) of its samples (a
+/// minibatch run: at most q), but never fewer than ten equations per
+/// entropy coefficient, drawn from a stream of their own; `None` when that
+/// is the whole pool.
+fn start_sample<S: MetriplecticSystem, D: IdentificationData>(
+    pool: &D,
+    config: &IdentifyConfig,
+) -> Result<Option<D>> {
+    let available = pool.equation_count();
+    // Ten equations per coefficient keep the start's L1 fit overdetermined.
+    let enough = (10 * S::entropy_coefficient_count()).div_ceil(S::DIM);
+    let wanted = config
+        .batch_size
+        .unwrap_or(available)
+        .min(config.start_samples.max(enough));
+    if wanted >= available {
+        return Ok(None);
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x57a7_0f5e_a7c4_0000);
+    let indices = rand::seq::index::sample(&mut rng, available, wanted).into_vec();
+    Ok(Some(pool.select(&indices)?))
 }
 
 /// The steps of one iteration on `batch` from `state.model` (and the trust
@@ -387,14 +482,34 @@ fn data_scale(data: &impl IdentificationData) -> f64 {
     data.equations().scale()
 }
 
-/// The iterations of [`identify_with_observer`] from `state` on.
+/// The iterations of [`identify_with_observer`] from `state` on, and the
+/// result.
 fn run<S, D, F>(
     data: &D,
     config: &IdentifyConfig,
     split: &Split<D>,
-    mut state: RunState<S>,
+    state: RunState<S>,
     mut observer: F,
 ) -> Result<Identification<S>>
+where
+    S: MetriplecticSystem,
+    D: IdentificationData,
+    F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
+{
+    let state = iterate(data, config, split, state, &mut observer, false)?;
+    finish(data, config, split, state)
+}
+
+/// Iterations on `split` from `state` until a stopping rule holds; their
+/// records are marked `warm_up` as asked.
+fn iterate<S, D, F>(
+    data: &D,
+    config: &IdentifyConfig,
+    split: &Split<D>,
+    mut state: RunState<S>,
+    observer: &mut F,
+    warm_up: bool,
+) -> Result<RunState<S>>
 where
     S: MetriplecticSystem,
     D: IdentificationData,
@@ -443,6 +558,7 @@ where
             joint,
             validation_cost: None,
             polish: false,
+            warm_up,
         };
         let cost_now = record.cost_after();
         // The score: on the validation samples, or the batch when it is all the data.
@@ -502,7 +618,7 @@ where
     }
     // A resumed run whose cap was already reached runs no iteration.
     state.stopped = Some(state.stopped.unwrap_or(StopReason::MaxIterations));
-    finish(data, config, split, state)
+    Ok(state)
 }
 
 /// Keeps the best-scoring model and counts iterations without improvement.
@@ -561,6 +677,7 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
             joint,
             validation_cost: split.validation.as_ref().map(|_| score),
             polish: true,
+            warm_up: false,
         });
         if let Some((best, best_score)) = best {
             if score.sum > best_score.sum {
@@ -691,7 +808,8 @@ mod tests {
                 start_samples,
                 ..alternation()
             };
-            fitted_start::<Quadratic2d>(&data, &config, &metric).unwrap()
+            let sample = start_sample::<Quadratic2d, _>(&data, &config).unwrap();
+            fitted_start::<Quadratic2d>(sample.as_ref().unwrap_or(&data), &config, &metric).unwrap()
         };
         let everything =
             entropy_search::<Quadratic2d>(&data, &metric, &SearchOptions::default()).unwrap();
@@ -715,6 +833,71 @@ mod tests {
         };
         let error = identify::<Quadratic2d>(&data, &zero).unwrap_err();
         assert!(error.to_string().contains("start samples"), "{error}");
+    }
+
+    /// A full-batch run on more samples than the start's subsample first
+    /// iterates on that subsample (recorded, observed and counted), then on
+    /// all the data; without the warm-up, or with a budget of one
+    /// iteration, every iteration is on all the data.
+    #[test]
+    fn a_large_full_batch_warms_up_on_the_start_subsample() {
+        let data = reference_data(400, 11);
+        let config = IdentifyConfig {
+            start_samples: 40,
+            max_iterations: 20,
+            ..alternation()
+        };
+        let mut observed = Vec::new();
+        let result = identify_with_observer::<Quadratic2d, _>(&data, &config, |record, _| {
+            observed.push((record.iteration, record.warm_up, record.batch_size));
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        assert_eq!(result.stop_reason, StopReason::Converged);
+        let iterations = &result.history.iterations;
+        let warm = iterations.iter().take_while(|r| r.warm_up).count();
+        assert!(warm >= 1 && warm < iterations.len(), "{iterations:?}");
+        assert!(iterations[warm..].iter().all(|r| !r.warm_up));
+        for (i, record) in iterations.iter().enumerate() {
+            assert_eq!(record.iteration, i + 1);
+            assert_eq!(record.batch_size, if record.warm_up { 40 } else { 400 });
+        }
+        let seen: Vec<_> = iterations
+            .iter()
+            .map(|r| (r.iteration, r.warm_up, r.batch_size))
+            .collect();
+        assert_eq!(observed, seen);
+        // The run on all the data starts from the warm-up's model: its first
+        // cost is the warm-up's last model's, on all the data.
+        let last_warm = &iterations[warm - 1];
+        assert!(iterations[warm].cost_before.per_component <= 1e-6);
+        assert!(last_warm.cost_after().per_component <= 1e-6);
+
+        for config in [
+            IdentifyConfig {
+                warm_up: false,
+                ..config.clone()
+            },
+            IdentifyConfig {
+                max_iterations: 1,
+                ..config.clone()
+            },
+        ] {
+            let result = identify::<Quadratic2d>(&data, &config).unwrap();
+            assert!(result
+                .history
+                .iterations
+                .iter()
+                .all(|r| !r.warm_up && r.batch_size == 400));
+        }
+        // Stopped by the observer in the warm-up: no iteration on all the data.
+        let stopped = identify_with_observer::<Quadratic2d, _>(&data, &config, |record, _| {
+            assert!(record.warm_up);
+            ControlFlow::Break(())
+        })
+        .unwrap();
+        assert_eq!(stopped.stop_reason, StopReason::Interrupted);
+        assert_eq!(stopped.history.iterations.len(), 1);
     }
 
     #[test]

@@ -57,6 +57,11 @@ pub struct IterationRecord {
     /// run's best model.
     #[serde(default)]
     pub polish: bool,
+    /// `true` for an iteration of a full-batch run's warm-up on the start's
+    /// subsample ([`IdentifyConfig::warm_up`](crate::IdentifyConfig::warm_up)):
+    /// its batch is that subsample and its costs are on it.
+    #[serde(default)]
+    pub warm_up: bool,
 }
 
 impl IterationRecord {
@@ -127,6 +132,7 @@ impl History {
         "joint_predicted_per_component",
         "joint_ratio",
         "validation_per_component",
+        "warm_up",
     ];
 
     /// Writes the history as CSV, one row per iteration, with a header
@@ -196,6 +202,7 @@ impl History {
                     .map(|c| number(c.per_component))
                     .unwrap_or_default(),
             );
+            row.push(r.warm_up.to_string());
             writer.write_record(&row).map_err(io)?;
         }
         writer.flush().map_err(|source| Error::Io {
