@@ -25,13 +25,15 @@
 //! * Whole identifications (`identify` with the default configuration) on
 //!   the same exact samples, q = 2000…16000 at degrees 4 and 6: what a
 //!   user waits for, including the start (an entropy search at the
-//!   identity metric on at most 2000 samples), the metric, entropy and
-//!   joint steps, and the final checks.
+//!   identity metric on at most 2000 samples), the warm-up's iterations on
+//!   those samples, the metric, entropy and joint steps on all of them,
+//!   and the final checks. `-- --whole --noisy` runs them on the noisy
+//!   samples instead.
 //!
 //! `cargo bench --bench scale` (about 20 min on 2 cores); `-- --quick` stops
 //! at q = 4000; `-- --peak` runs only the degree-6 solve at q = 16000 and
 //! prints the process's peak resident memory; `-- --whole` runs only the
-//! whole identifications.
+//! whole identifications (`-- --whole --noisy` on noisy samples).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -343,14 +345,14 @@ fn q_series<S: MetriplecticSystem>(qs: &[usize], noise: f64) -> Vec<(usize, Solv
 /// iterations, recorded solves, their IPM iterations, wall time, the time
 /// inside the recorded solves, the held-out error against the truth), and
 /// the wall time's growth in q.
-fn identification_series<S: MetriplecticSystem>(qs: &[usize]) {
+fn identification_series<S: MetriplecticSystem>(qs: &[usize], noise: f64) {
     let truth = Model::<S>::reference().expect("the system declares its truth");
     let held_out = reference_samples::<S>(500, 77, |rng| {
         (0..6).map(|_| rng.random_range(-1.2..1.2)).collect()
     });
     let mut walls = Vec::new();
     for &q in qs {
-        let case = Case::<S>::new(q);
+        let case = Case::<S>::with_noise(q, noise);
         let start = Instant::now();
         let fit =
             identify::<S>(&case.data, &IdentifyConfig::default()).expect("identification runs");
@@ -392,8 +394,9 @@ fn identification_series<S: MetriplecticSystem>(qs: &[usize]) {
         } else {
             unsolved.join(", ")
         };
+        let warm_up = fit.history.iterations.iter().filter(|r| r.warm_up).count();
         println!(
-            "| {} | {q} | {:?} | {} | {} | {unsolved} | {ipm} | {wall:.1} | {inside:.1} | {:.1} | {error:.1e} |",
+            "| {} | {q} | {:?} | {} ({warm_up}) | {} | {unsolved} | {ipm} | {wall:.1} | {inside:.1} | {:.1} | {error:.1e} |",
             S::entropy_coefficient_count(),
             fit.stop_reason,
             fit.history.iterations.len(),
@@ -431,7 +434,8 @@ fn main() {
         &[2000, 4000, 8000, 16000]
     };
     if args.iter().any(|a| a == "--whole") {
-        whole_identifications(qs);
+        let noisy = args.iter().any(|a| a == "--noisy");
+        whole_identifications(qs, if noisy { NOISE } else { 0.0 });
         return;
     }
 
@@ -532,15 +536,21 @@ fn main() {
         );
     }
 
-    whole_identifications(qs);
+    whole_identifications(qs, 0.0);
 }
 
-fn whole_identifications(qs: &[usize]) {
-    println!("\n### Whole identifications (default configuration, exact samples)\n");
+/// Whole identifications at both degrees on exact samples (`noise` 0) or
+/// with Gaussian noise of that standard deviation on ẋ.
+fn whole_identifications(qs: &[usize], noise: f64) {
+    if noise > 0.0 {
+        println!("\n### Whole identifications (default configuration, noise {noise:e} on ẋ)\n");
+    } else {
+        println!("\n### Whole identifications (default configuration, exact samples)\n");
+    }
     println!(
-        "| p | q | stop | iterations | solves | not Solved | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
+        "| p | q | stop | iterations (warm-up) | solves | not Solved | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    identification_series::<ChainDegree4>(qs);
-    identification_series::<ChainDegree6>(qs);
+    identification_series::<ChainDegree4>(qs, noise);
+    identification_series::<ChainDegree6>(qs, noise);
 }
