@@ -70,7 +70,7 @@ pub struct IdentifyConfig {
     /// from the truth, whose interior-point iterations grow with the data.
     /// `usize::MAX` fits it on every sample. Default 2000.
     pub start_samples: usize,
-    /// Full-batch runs on more samples than the start's subsample
+    /// Full-batch runs on at least twice the start's subsample
     /// ([`start_samples`](Self::start_samples)) first iterate on that
     /// subsample, while each iteration at least halves its cost (or until
     /// it fits to [`tolerance`](Self::tolerance)), then on all the data from

@@ -63,7 +63,7 @@ pub struct Identification<S: MetriplecticSystem> {
 ///
 /// # Warm-up
 ///
-/// A full-batch run on more samples than the start's subsample
+/// A full-batch run on at least twice the start's subsample
 /// ([`IdentifyConfig::start_samples`], 2000 by default) takes its first
 /// iterations on that subsample, while each halves its cost, and then
 /// iterates on all the data from the model reached
@@ -169,9 +169,7 @@ where
     let state = RunState::start(Model::<S>::new(entropy, metric)?, config);
     let mut observer = observer;
     let state = match sample {
-        Some(sample)
-            if config.batch_size.is_none() && config.warm_up && config.max_iterations > 1 =>
-        {
+        Some(sample) if warms_up(config, &sample, &split.pool) => {
             warm_up(&sample, config, state, &mut observer)?
         }
         _ => state,
@@ -200,6 +198,19 @@ impl<S: MetriplecticSystem> RunState<S> {
             since_improvement: 0,
         }
     }
+}
+
+/// Whether a run warms up on the start's subsample `sample` of `pool`
+/// ([`IdentifyConfig::warm_up`]): full-batch runs with an iteration to
+/// spare, on a pool of at least twice the subsample. Below that the
+/// warm-up's iterations cost more than the iterations on all the data they
+/// save: on exact data three on the subsample and one on all replace about
+/// three on all.
+fn warms_up<D: IdentificationData>(config: &IdentifyConfig, sample: &D, pool: &D) -> bool {
+    config.batch_size.is_none()
+        && config.warm_up
+        && config.max_iterations > 1
+        && 2 * sample.equation_count() <= pool.equation_count()
 }
 
 /// A warm-up iteration continues only while it divides the subsample's cost
@@ -835,7 +846,7 @@ mod tests {
         assert!(error.to_string().contains("start samples"), "{error}");
     }
 
-    /// A full-batch run on more samples than the start's subsample first
+    /// A full-batch run on at least twice the start's subsample first
     /// iterates on that subsample (recorded, observed and counted), then on
     /// all the data; without the warm-up, or with a budget of one
     /// iteration, every iteration is on all the data.
@@ -880,6 +891,11 @@ mod tests {
             },
             IdentifyConfig {
                 max_iterations: 1,
+                ..config.clone()
+            },
+            // Less than twice the subsample.
+            IdentifyConfig {
+                start_samples: 201,
                 ..config.clone()
             },
         ] {
