@@ -28,12 +28,13 @@
 //!   identity metric on at most 2000 samples), the warm-up's iterations on
 //!   those samples, the metric, entropy and joint steps on all of them,
 //!   and the final checks. `-- --whole --noisy` runs them on the noisy
-//!   samples instead.
+//!   samples instead, and `--cold` without the warm-up.
 //!
 //! `cargo bench --bench scale` (about 20 min on 2 cores); `-- --quick` stops
 //! at q = 4000; `-- --peak` runs only the degree-6 solve at q = 16000 and
 //! prints the process's peak resident memory; `-- --whole` runs only the
-//! whole identifications (`-- --whole --noisy` on noisy samples).
+//! whole identifications (`-- --whole --noisy` on noisy samples, `--cold`
+//! without the warm-up).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -345,7 +346,7 @@ fn q_series<S: MetriplecticSystem>(qs: &[usize], noise: f64) -> Vec<(usize, Solv
 /// iterations, recorded solves, their IPM iterations, wall time, the time
 /// inside the recorded solves, the held-out error against the truth), and
 /// the wall time's growth in q.
-fn identification_series<S: MetriplecticSystem>(qs: &[usize], noise: f64) {
+fn identification_series<S: MetriplecticSystem>(qs: &[usize], noise: f64, config: &IdentifyConfig) {
     let truth = Model::<S>::reference().expect("the system declares its truth");
     let held_out = reference_samples::<S>(500, 77, |rng| {
         (0..6).map(|_| rng.random_range(-1.2..1.2)).collect()
@@ -354,8 +355,7 @@ fn identification_series<S: MetriplecticSystem>(qs: &[usize], noise: f64) {
     for &q in qs {
         let case = Case::<S>::with_noise(q, noise);
         let start = Instant::now();
-        let fit =
-            identify::<S>(&case.data, &IdentifyConfig::default()).expect("identification runs");
+        let fit = identify::<S>(&case.data, config).expect("identification runs");
         let wall = start.elapsed().as_secs_f64();
         let steps: Vec<&SearchReport> = fit
             .history
@@ -435,7 +435,11 @@ fn main() {
     };
     if args.iter().any(|a| a == "--whole") {
         let noisy = args.iter().any(|a| a == "--noisy");
-        whole_identifications(qs, if noisy { NOISE } else { 0.0 });
+        let config = IdentifyConfig {
+            warm_up: !args.iter().any(|a| a == "--cold"),
+            ..IdentifyConfig::default()
+        };
+        whole_identifications(qs, if noisy { NOISE } else { 0.0 }, &config);
         return;
     }
 
@@ -536,21 +540,22 @@ fn main() {
         );
     }
 
-    whole_identifications(qs, 0.0);
+    whole_identifications(qs, 0.0, &IdentifyConfig::default());
 }
 
-/// Whole identifications at both degrees on exact samples (`noise` 0) or
-/// with Gaussian noise of that standard deviation on ẋ.
-fn whole_identifications(qs: &[usize], noise: f64) {
+/// Whole identifications at both degrees with `config` on exact samples
+/// (`noise` 0) or with Gaussian noise of that standard deviation on ẋ.
+fn whole_identifications(qs: &[usize], noise: f64, config: &IdentifyConfig) {
+    let warm_up = if config.warm_up { "" } else { ", no warm-up" };
     if noise > 0.0 {
-        println!("\n### Whole identifications (default configuration, noise {noise:e} on ẋ)\n");
+        println!("\n### Whole identifications (noise {noise:e} on ẋ{warm_up})\n");
     } else {
-        println!("\n### Whole identifications (default configuration, exact samples)\n");
+        println!("\n### Whole identifications (exact samples{warm_up})\n");
     }
     println!(
         "| p | q | stop | iterations (warm-up) | solves | not Solved | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    identification_series::<ChainDegree4>(qs, noise);
-    identification_series::<ChainDegree6>(qs, noise);
+    identification_series::<ChainDegree4>(qs, noise, config);
+    identification_series::<ChainDegree6>(qs, noise, config);
 }

@@ -69,7 +69,7 @@ pub struct Identification<S: MetriplecticSystem> {
 /// iterates on all the data from the model reached
 /// ([`IdentifyConfig::warm_up`]): the early iterations, with the metric far
 /// from the truth, are the costly ones, and on exact data of a 6-state
-/// system at q = 16000 the whole run took 54 s instead of 271 s.
+/// system at q = 16000 the whole run took 55 s instead of 271 s.
 ///
 /// # Stopping
 ///
