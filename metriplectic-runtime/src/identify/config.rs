@@ -82,7 +82,8 @@ pub struct IdentifyConfig {
     /// ([`IterationRecord::warm_up`](crate::IterationRecord::warm_up)), seen
     /// by the observer and counted by
     /// [`max_iterations`](Self::max_iterations), which always leaves one
-    /// iteration on all the data. Default `true`.
+    /// iteration on all the data. It writes no checkpoints: a run stopped
+    /// in its warm-up starts again from the beginning. Default `true`.
     pub warm_up: bool,
     /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite, and
     /// against the support and gauge of [`search`](Self::search)).
