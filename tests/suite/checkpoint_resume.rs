@@ -132,6 +132,63 @@ fn interrupted_and_resumed_run_equals_an_uninterrupted_run() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A full-batch run that warms up on the start's subsample writes its
+/// checkpoints in the run on all the data, with the warm-up's iterations in
+/// their history; resumed from one, it equals an uninterrupted run and
+/// does not warm up again.
+#[test]
+fn a_run_resumed_after_its_warm_up_equals_an_uninterrupted_run() {
+    let dir = scratch("warm-up");
+    // The start's subsample: 220 samples, ten equations per coefficient.
+    let data = linear2d_data(500, 9);
+    let config = |checkpoint: Option<&Path>| IdentifyConfig {
+        start_samples: 200,
+        max_iterations: 6,
+        tolerance: 0.0,
+        initial_entropy: Some(perturbed_reference_entropy::<Linear2d>(0.5, 9)),
+        scheme: IterationScheme::AlternatingThenJoint(TrustRegion::default()),
+        checkpoint: checkpoint.map(|path| CheckpointConfig {
+            path: path.to_owned(),
+            every: 1,
+        }),
+        ..alternation()
+    };
+    let uninterrupted = identify::<Linear2d>(&data, &config(None)).unwrap();
+    let iterations = &uninterrupted.history.iterations;
+    let warm = iterations.iter().take_while(|r| r.warm_up).count();
+    assert!((1..6).contains(&warm), "{warm} warm-up iterations");
+    assert!(iterations[..warm].iter().all(|r| r.batch_size == 220));
+    assert!(iterations[warm..]
+        .iter()
+        .all(|r| !r.warm_up && r.batch_size == 500));
+
+    // Stopped at the first iteration on all the data: the warm-up saved
+    // nothing, the stop saves everything so far.
+    let path = dir.join("checkpoint.json");
+    let mut saved_in_warm_up = Vec::new();
+    let stopped =
+        identify_with_observer::<Linear2d, _>(&data, &config(Some(&path)), |record, _| {
+            if record.warm_up {
+                saved_in_warm_up.push(saved_iterations(&path));
+                ControlFlow::Continue(())
+            } else {
+                ControlFlow::Break(())
+            }
+        })
+        .unwrap();
+    assert_eq!(stopped.stop_reason, StopReason::Interrupted);
+    assert!(saved_in_warm_up.iter().all(Option::is_none));
+    assert_eq!(saved_iterations(&path), Some(warm + 1));
+
+    let resumed = identify_resume::<Linear2d>(&path, &data, &config(None)).unwrap();
+    assert_eq!(resumed.stop_reason, StopReason::MaxIterations);
+    assert_eq!(
+        without_timings(&resumed.history),
+        without_timings(&uninterrupted.history)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn resuming_with_other_data_configuration_or_system_is_refused() {
     let dir = scratch("mismatch");
