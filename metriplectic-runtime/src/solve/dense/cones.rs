@@ -296,6 +296,28 @@ pub(super) fn cone_identity(segments: &[Segment], m: usize) -> DVector<f64> {
     e
 }
 
+/// Largest α ≤ ∞ with λ + α d ≥ 0 on an orthant (λ > 0): the smallest
+/// −λᵢ/dᵢ over dᵢ < 0. Four independent minima let the scan run in SIMD
+/// lanes instead of one compare chain; the minimum of a set does not
+/// depend on the order, so the result is the same bits as a plain loop.
+pub(super) fn orthant_step_limit(lambda: &[f64], d: &[f64]) -> f64 {
+    const LANES: usize = 4;
+    let ratio = |l: f64, v: f64| if v < 0.0 { -l / v } else { f64::INFINITY };
+    let mut lanes = [f64::INFINITY; LANES];
+    let (l_chunks, d_chunks) = (lambda.chunks_exact(LANES), d.chunks_exact(LANES));
+    let (l_rest, d_rest) = (l_chunks.remainder(), d_chunks.remainder());
+    for (l, v) in l_chunks.zip(d_chunks) {
+        for lane in 0..LANES {
+            lanes[lane] = lanes[lane].min(ratio(l[lane], v[lane]));
+        }
+    }
+    let tail = l_rest
+        .iter()
+        .zip(d_rest)
+        .fold(f64::INFINITY, |alpha, (&l, &v)| alpha.min(ratio(l, v)));
+    lanes.into_iter().fold(tail, f64::min)
+}
+
 /// Largest α ≤ ∞ with λ + α d in the side cones, for a diagonal λ.
 pub(super) fn side_step_limit(segments: &[Segment], lambda: &[f64], d: &DVector<f64>) -> f64 {
     let mut alpha = f64::INFINITY;
@@ -307,11 +329,10 @@ pub(super) fn side_step_limit(segments: &[Segment], lambda: &[f64], d: &DVector<
                 alpha = alpha.min(psd_step_limit(&diagonal, &d.as_slice()[range]));
             }
             None => {
-                for i in range {
-                    if d[i] < 0.0 {
-                        alpha = alpha.min(-lambda[i] / d[i]);
-                    }
-                }
+                alpha = alpha.min(orthant_step_limit(
+                    &lambda[range.clone()],
+                    &d.as_slice()[range],
+                ));
             }
         }
     }
@@ -347,11 +368,10 @@ pub(super) fn slack_step_limit(
                 }
             }
             None => {
-                for i in range {
-                    if ds[i] < 0.0 {
-                        alpha = alpha.min(-s[i] / ds[i]);
-                    }
-                }
+                alpha = alpha.min(orthant_step_limit(
+                    &s.as_slice()[range.clone()],
+                    &ds.as_slice()[range],
+                ));
             }
         }
     }

@@ -9,8 +9,8 @@ use std::time::Instant;
 use nalgebra::DVector;
 
 use super::cones::{
-    cone_identity, jordan_divide, jordan_product, shift_into_cones, shift_orthant, side_step_limit,
-    slack_step_limit, SideScaling,
+    cone_identity, jordan_divide, jordan_product, orthant_step_limit, shift_into_cones,
+    shift_orthant, side_step_limit, slack_step_limit, SideScaling,
 };
 use super::newton::{reduced_row, Extra, Kkt, Newton};
 use super::Reduced;
@@ -754,15 +754,10 @@ impl<'a> Step<'a> {
     /// multipliers (dual) in their cones.
     fn step_limits(&self, d: &Direction) -> Steps {
         let limit = |pairs: [(&DVector<f64>, &DVector<f64>); 2]| {
-            let mut alpha = f64::INFINITY;
-            for (l, v) in pairs {
-                for (l, v) in l.iter().zip(v.iter()) {
-                    if *v < 0.0 {
-                        alpha = alpha.min(-l / v);
-                    }
-                }
-            }
-            alpha
+            pairs
+                .iter()
+                .map(|(l, v)| orthant_step_limit(l.as_slice(), v.as_slice()))
+                .fold(f64::INFINITY, f64::min)
         };
         let segments = &self.problem.segments;
         let lambda = self.lambda_c.as_slice();
