@@ -721,9 +721,10 @@ impl<'a> Step<'a> {
                 DVector::from_iterator(
                     lambda.len(),
                     lambda
+                        .as_slice()
                         .iter()
-                        .zip(ds.iter())
-                        .zip(dz.iter())
+                        .zip(ds.as_slice())
+                        .zip(dz.as_slice())
                         .map(|((l, ds), dz)| {
                             let product = (l + trial.primal * ds) * (l + trial.dual * dz);
                             if product < low {
@@ -781,7 +782,7 @@ impl<'a> Step<'a> {
         ];
         pairs
             .iter()
-            .flat_map(|(l, ds, dz)| l.iter().zip(ds.iter()).zip(dz.iter()))
+            .flat_map(|(l, ds, dz)| l.as_slice().iter().zip(ds.as_slice()).zip(dz.as_slice()))
             .map(|((l, ds), dz)| (l + steps.primal * ds) * (l + steps.dual * dz))
             .sum()
     }
