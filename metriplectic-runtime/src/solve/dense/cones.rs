@@ -502,6 +502,40 @@ mod tests {
         }
     }
 
+    /// The lane-parallel scan is the plain loop's minimum to the bit, at
+    /// every length's remainder, with no blocking component (∞), and with
+    /// the smallest ratio in the remainder or in any lane.
+    #[test]
+    fn orthant_step_limit_is_the_plain_minimum() {
+        let plain = |lambda: &[f64], d: &[f64]| {
+            let mut alpha = f64::INFINITY;
+            for (l, v) in lambda.iter().zip(d) {
+                if *v < 0.0 {
+                    alpha = alpha.min(-l / v);
+                }
+            }
+            alpha
+        };
+        assert_eq!(orthant_step_limit(&[], &[]), f64::INFINITY);
+        assert_eq!(orthant_step_limit(&[1.0; 9], &[0.5; 9]), f64::INFINITY);
+        for n in 1..=13 {
+            let lambda: Vec<f64> = (0..n).map(|i| 0.3 + 0.17 * i as f64).collect();
+            for blocking in 0..n {
+                // Some directions negative, the steepest at `blocking`.
+                let d: Vec<f64> = (0..n)
+                    .map(|i| match (i == blocking, i % 3) {
+                        (true, _) => -7.0,
+                        (false, 0) => 0.4,
+                        (false, r) => -0.1 * r as f64,
+                    })
+                    .collect();
+                let got = orthant_step_limit(&lambda, &d);
+                assert_eq!(got.to_bits(), plain(&lambda, &d).to_bits(), "n {n}");
+                assert_eq!(got, lambda[blocking] / 7.0, "n {n}, blocking {blocking}");
+            }
+        }
+    }
+
     #[test]
     fn step_to_the_boundary() {
         // Step to the boundary of diag(1, 2) along −I is 1.
