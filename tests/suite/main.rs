@@ -23,6 +23,7 @@
 //! | `oversized_bases` | entropy bases larger than the truth needs |
 //! | `plot` | figures |
 //! | `classical` | the classical (GENERIC) form: constraints imposed, checked and recorded |
+//! | `start_scale` | the default start's choice of the metric's order of magnitude |
 //! | `what_the_data_determine` | identifiability reports, the gauge, degree selection, sparse refits, bootstrap |
 
 mod common;
@@ -52,6 +53,7 @@ mod reproduction_interrupt;
 mod simulation;
 mod solver_status;
 mod solver_trouble;
+mod start_scale;
 mod stop_reasons;
 mod stopping;
 mod what_the_data_determine;

@@ -87,7 +87,12 @@ pub struct IdentifyConfig {
     pub warm_up: bool,
     /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite, and
     /// against the support and gauge of [`search`](Self::search)).
-    /// Default `None`: the identity metric, scaled to the gauge if one is set.
+    /// Default `None`: the identity metric, scaled to the gauge if one is
+    /// set; with no gauge and no [`initial_entropy`](Self::initial_entropy)
+    /// either, the identity times whichever of 1, 0.1, 0.01 and 10 (those
+    /// up to the bound η) gives the fitted start the lowest cost, 1 unless
+    /// another fits at least 10% better (`docs/method.md` §3, "The start's
+    /// metric scale").
     pub initial_metric: Option<Vec<f64>>,
     /// Options of every search: the coefficient bound η, the SOS tables and
     /// the solver. Default [`SearchOptions::default`] (η = 20).

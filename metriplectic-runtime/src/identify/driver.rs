@@ -157,14 +157,16 @@ where
     check_dataset::<S>(data)?;
     config.validate::<S>(data.equation_count())?;
     let split = Split::new(data, config)?;
-    let metric = match &config.initial_metric {
-        Some(metric) => metric.clone(),
-        None => default_start_metric::<S>(&config.search)?,
-    };
     let sample = start_sample::<S, _>(&split.pool, config)?;
-    let entropy = match &config.initial_entropy {
-        Some(entropy) => entropy.clone(),
-        None => fitted_start::<S>(sample.as_ref().unwrap_or(&split.pool), config, &metric)?,
+    let start_batch = sample.as_ref().unwrap_or(&split.pool);
+    let (entropy, metric) = match (&config.initial_entropy, &config.initial_metric) {
+        (Some(entropy), Some(metric)) => (entropy.clone(), metric.clone()),
+        (Some(entropy), None) => (entropy.clone(), default_start_metric::<S>(&config.search)?),
+        (None, Some(metric)) => (
+            fitted_start::<S>(start_batch, config, metric)?,
+            metric.clone(),
+        ),
+        (None, None) => scaled_start::<S>(start_batch, config)?,
     };
     let state = RunState::start(Model::<S>::new(entropy, metric)?, config);
     let mut observer = observer;
@@ -410,6 +412,60 @@ fn fitted_start<S: MetriplecticSystem>(
         search.coefficients
     } else {
         vec![0.0; S::entropy_coefficient_count()]
+    })
+}
+
+/// Scales of the default start metric that [`scaled_start`] tries, the
+/// unit first: a decade apart, since only the order of magnitude matters
+/// for where the iteration begins.
+const START_SCALES: [f64; 4] = [1.0, 0.1, 0.01, 10.0];
+/// A scale replaces the best so far only if its start fits at least this
+/// much better (a cost below this fraction of the best): where the scale
+/// is free (Π∇E = 0, every scale fits alike) the unit metric stays.
+const START_MARGIN: f64 = 0.9;
+
+/// The default start with neither an initial entropy nor an initial metric:
+/// [`fitted_start`] with the default start metric times each of
+/// [`START_SCALES`] (those within the bound η, all of them unless a gauge
+/// fixes the scale), keeping the pair whose entropy fits the batch best.
+/// Returns (entropy, metric).
+///
+/// The identity metric is a guess of the metric's size in the data's
+/// units. When the truth is ten times smaller, the entropy fitted at the
+/// identity absorbs the difference, and the alternation can settle in a
+/// local minimum of the biconvex cost: on a 4-state Lie–Poisson system
+/// with K of size 0.1–0.4, two of three datasets stalled at a held-out
+/// error of 6e-2 from the identity and converged to 1e-12 from 0.1·I,
+/// whose start fitted the data three times better. The scan costs three
+/// more entropy searches on the start's subsample.
+fn scaled_start<S: MetriplecticSystem>(
+    batch: &impl IdentificationData,
+    config: &IdentifyConfig,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let unit = default_start_metric::<S>(&config.search)?;
+    if config.search.gauge.is_some() {
+        return Ok((fitted_start::<S>(batch, config, &unit)?, unit));
+    }
+    let mut best: Option<(f64, Vec<f64>, Vec<f64>)> = None;
+    // The default metric's largest eigenvalue is 1, so c·metric ⪯ ηI for c ≤ η.
+    for scale in START_SCALES.into_iter().filter(|&c| c <= config.search.eta) {
+        let metric: Vec<f64> = unit.iter().map(|t| t * scale).collect();
+        let search = entropy_search::<S>(batch, &metric, &config.search)?;
+        let usable =
+            search.report.status.is_usable() && search.coefficients.iter().all(|c| c.is_finite());
+        let Some(cost) = search.report.cost.filter(|_| usable).map(|c| c.sum) else {
+            continue;
+        };
+        if best
+            .as_ref()
+            .is_none_or(|(incumbent, _, _)| cost < START_MARGIN * incumbent)
+        {
+            best = Some((cost, search.coefficients, metric));
+        }
+    }
+    Ok(match best {
+        Some((_, entropy, metric)) => (entropy, metric),
+        None => (vec![0.0; S::entropy_coefficient_count()], unit),
     })
 }
 
