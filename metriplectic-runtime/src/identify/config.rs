@@ -89,10 +89,10 @@ pub struct IdentifyConfig {
     /// against the support and gauge of [`search`](Self::search)).
     /// Default `None`: the identity metric, scaled to the gauge if one is
     /// set; with no gauge and no [`initial_entropy`](Self::initial_entropy)
-    /// either, the identity times whichever of 1, 0.1, 0.01 and 10 (those
-    /// up to the bound η) gives the fitted start the lowest cost, 1 unless
-    /// another fits at least 10% better (`docs/method.md` §3, "The start's
-    /// metric scale").
+    /// either, the identity times 1, 0.1 or 0.01 (while each fits the
+    /// start at least 10% better than the last), or else 10 if that does
+    /// (scales up to the bound η; `docs/method.md` §3, "The start's metric
+    /// scale").
     pub initial_metric: Option<Vec<f64>>,
     /// Options of every search: the coefficient bound η, the SOS tables and
     /// the solver. Default [`SearchOptions::default`] (η = 20).

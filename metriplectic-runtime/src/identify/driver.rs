@@ -415,20 +415,24 @@ fn fitted_start<S: MetriplecticSystem>(
     })
 }
 
-/// Scales of the default start metric that [`scaled_start`] tries, the
-/// unit first: a decade apart, since only the order of magnitude matters
-/// for where the iteration begins.
-const START_SCALES: [f64; 4] = [1.0, 0.1, 0.01, 10.0];
+/// Scales of the default start metric that [`scaled_start`] walks to from
+/// the unit, downwards and upwards, a decade apart: only the order of
+/// magnitude matters for where the iteration begins.
+const SCALES_DOWN: [f64; 2] = [0.1, 0.01];
+const SCALES_UP: [f64; 1] = [10.0];
 /// A scale replaces the best so far only if its start fits at least this
 /// much better (a cost below this fraction of the best): where the scale
 /// is free (Π∇E = 0, every scale fits alike) the unit metric stays.
 const START_MARGIN: f64 = 0.9;
 
+/// A fitted start: its cost on the batch, the entropy and the metric.
+type Start = (f64, Vec<f64>, Vec<f64>);
+
 /// The default start with neither an initial entropy nor an initial metric:
-/// [`fitted_start`] with the default start metric times each of
-/// [`START_SCALES`] (those within the bound η, all of them unless a gauge
-/// fixes the scale), keeping the pair whose entropy fits the batch best.
-/// Returns (entropy, metric).
+/// [`fitted_start`] with the default start metric, then with it times 0.1
+/// and 0.01 while each fits better, or else times 10 (scales within the
+/// bound η; none unless a gauge fixes the scale), keeping the pair whose
+/// entropy fits the batch best. Returns (entropy, metric).
 ///
 /// The identity metric is a guess of the metric's size in the data's
 /// units. When the truth is ten times smaller, the entropy fitted at the
@@ -436,8 +440,8 @@ const START_MARGIN: f64 = 0.9;
 /// local minimum of the biconvex cost: on a 4-state Lie–Poisson system
 /// with K of size 0.1–0.4, two of three datasets stalled at a held-out
 /// error of 6e-2 from the identity and converged to 1e-12 from 0.1·I,
-/// whose start fitted the data three times better. The scan costs three
-/// more entropy searches on the start's subsample.
+/// whose start fitted the data three times better. The walk costs two
+/// more entropy searches on the start's subsample (three when 0.1 wins).
 fn scaled_start<S: MetriplecticSystem>(
     batch: &impl IdentificationData,
     config: &IdentifyConfig,
@@ -446,22 +450,37 @@ fn scaled_start<S: MetriplecticSystem>(
     if config.search.gauge.is_some() {
         return Ok((fitted_start::<S>(batch, config, &unit)?, unit));
     }
-    let mut best: Option<(f64, Vec<f64>, Vec<f64>)> = None;
-    // The default metric's largest eigenvalue is 1, so c·metric ⪯ ηI for c ≤ η.
-    for scale in START_SCALES.into_iter().filter(|&c| c <= config.search.eta) {
+    let fit = |scale: f64| -> Result<Option<Start>> {
         let metric: Vec<f64> = unit.iter().map(|t| t * scale).collect();
         let search = entropy_search::<S>(batch, &metric, &config.search)?;
         let usable =
             search.report.status.is_usable() && search.coefficients.iter().all(|c| c.is_finite());
-        let Some(cost) = search.report.cost.filter(|_| usable).map(|c| c.sum) else {
-            continue;
-        };
-        if best
-            .as_ref()
-            .is_none_or(|(incumbent, _, _)| cost < START_MARGIN * incumbent)
-        {
-            best = Some((cost, search.coefficients, metric));
+        Ok(search
+            .report
+            .cost
+            .filter(|_| usable)
+            .map(|cost| (cost.sum, search.coefficients, metric)))
+    };
+    // Walks along `scales` while each fits better than the best so far.
+    let walk = |scales: &[f64], best: &mut Option<Start>| -> Result<bool> {
+        let mut moved = false;
+        // The default metric's largest eigenvalue is 1: c·metric ⪯ ηI for c ≤ η.
+        for &scale in scales.iter().filter(|&&c| c <= config.search.eta) {
+            let Some(start) = fit(scale)? else { break };
+            if !best
+                .as_ref()
+                .is_none_or(|(incumbent, _, _)| start.0 < START_MARGIN * incumbent)
+            {
+                break;
+            }
+            *best = Some(start);
+            moved = true;
         }
+        Ok(moved)
+    };
+    let mut best = fit(1.0)?;
+    if !walk(&SCALES_DOWN, &mut best)? {
+        walk(&SCALES_UP, &mut best)?;
     }
     Ok(match best {
         Some((_, entropy, metric)) => (entropy, metric),
