@@ -5,7 +5,10 @@ pub use metriplectic::systems::{
     linear2d_data, perturbed_reference_entropy, rigid_body_data, Linear2d, RigidBody,
 };
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{IterationScheme, Validation};
+use metriplectic_runtime::{
+    synthesize, InitialStates, IterationScheme, SampleTimes, SynthesisOptions, SyntheticData,
+    Validation,
+};
 
 /// θ of the constant metric K = c·I for system `S`.
 pub fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {
@@ -56,4 +59,25 @@ pub fn alternation() -> IdentifyConfig {
         scheme: IterationScheme::Alternating,
         ..IdentifyConfig::default()
     }
+}
+
+/// Synthetic data of the reference model of `S`: 40 trajectories of
+/// duration 3 from the cube of half-width `half_width`, 30 log-uniform
+/// samples each from t = 1e-3, 5 of them held out, seeded by `seed`.
+pub fn reference_trajectories<S: MetriplecticSystem>(half_width: f64, seed: u64) -> SyntheticData {
+    let truth = Model::<S>::reference().expect("reference declared");
+    let options = SynthesisOptions {
+        trajectories: 40,
+        duration: 3.0,
+        held_out_trajectories: 5,
+        seed,
+        ..SynthesisOptions::new(
+            InitialStates::cube(S::DIM, half_width),
+            SampleTimes::LogUniform {
+                count: 30,
+                first: 1e-3,
+            },
+        )
+    };
+    synthesize(&truth, &options).expect("a stable reference")
 }

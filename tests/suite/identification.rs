@@ -368,21 +368,7 @@ metriplectic! {
 /// 1e-4 (`docs/method.md` §3, "The metric refit"); with it the run converges.
 #[test]
 fn the_metric_refit_gets_a_state_dependent_metric_out_of_a_curved_valley() {
-    let truth = Model::<PositionFriction>::reference().expect("reference declared");
-    let options = SynthesisOptions {
-        trajectories: 40,
-        duration: 3.0,
-        held_out_trajectories: 5,
-        seed: 3,
-        ..SynthesisOptions::new(
-            InitialStates::cube(2, 1.5),
-            SampleTimes::LogUniform {
-                count: 30,
-                first: 1e-3,
-            },
-        )
-    };
-    let data = synthesize(&truth, &options).expect("a stable reference");
+    let data = reference_trajectories::<PositionFriction>(1.5, 3);
     let held_out = data.held_out.as_ref().expect("five held-out trajectories");
     let run = identify::<PositionFriction>(&data.train, &IdentifyConfig::default())
         .expect("the identification runs");
