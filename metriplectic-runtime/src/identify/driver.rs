@@ -434,8 +434,9 @@ type Start = (f64, Vec<f64>, Vec<f64>);
 /// The default start with neither an initial entropy nor an initial metric:
 /// [`fitted_start`] with the default start metric, then with it times 0.1
 /// and 0.01 while each fits better, or else times 10 (scales within the
-/// bound η; none unless a gauge fixes the scale), keeping the pair whose
-/// entropy fits the batch best. Returns (entropy, metric).
+/// bound η), keeping the pair whose entropy fits the batch best; with a
+/// gauge, which fixes the scale, the default metric alone. Returns
+/// (entropy, metric).
 ///
 /// The identity metric is a guess of the metric's size in the data's
 /// units. When the truth is ten times smaller, the entropy fitted at the
