@@ -408,14 +408,22 @@ fn fitted_start<S: MetriplecticSystem>(
     config: &IdentifyConfig,
     metric: &[f64],
 ) -> Result<Vec<f64>> {
+    Ok(start_fit::<S>(batch, config, metric)?
+        .map(|(entropy, _)| entropy)
+        .unwrap_or_else(|| vec![0.0; S::entropy_coefficient_count()]))
+}
+
+/// The entropy search's fit with `metric` and its cost on `batch`, if the
+/// solve ended usable with finite coefficients.
+fn start_fit<S: MetriplecticSystem>(
+    batch: &impl IdentificationData,
+    config: &IdentifyConfig,
+    metric: &[f64],
+) -> Result<Option<(Vec<f64>, Option<Cost>)>> {
     let search = entropy_search::<S>(batch, metric, &config.search)?;
     let usable =
         search.report.status.is_usable() && search.coefficients.iter().all(|c| c.is_finite());
-    Ok(if usable {
-        search.coefficients
-    } else {
-        vec![0.0; S::entropy_coefficient_count()]
-    })
+    Ok(usable.then_some((search.coefficients, search.report.cost)))
 }
 
 /// Scales of the default start metric that [`scaled_start`] walks to from
@@ -456,14 +464,8 @@ fn scaled_start<S: MetriplecticSystem>(
     }
     let fit = |scale: f64| -> Result<Option<Start>> {
         let metric: Vec<f64> = unit.iter().map(|t| t * scale).collect();
-        let search = entropy_search::<S>(batch, &metric, &config.search)?;
-        let usable =
-            search.report.status.is_usable() && search.coefficients.iter().all(|c| c.is_finite());
-        Ok(search
-            .report
-            .cost
-            .filter(|_| usable)
-            .map(|cost| (cost.sum, search.coefficients, metric)))
+        Ok(start_fit::<S>(batch, config, &metric)?
+            .and_then(|(entropy, cost)| cost.map(|cost| (cost.sum, entropy, metric))))
     };
     // Walks along `scales` while each fits better than the best so far.
     let walk = |scales: &[f64], best: &mut Option<Start>| -> Result<bool> {
