@@ -4,8 +4,8 @@
 use crate::common::*;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identify, identify_with_observer, History, IdentifyConfig, IterationScheme, StepOutcome,
-    StopReason, TrustRegion,
+    identify, identify_with_observer, metric_search, History, IdentifyConfig, IterationScheme,
+    SearchOptions, StepOutcome, StopReason, TrustRegion,
 };
 use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
 use std::ops::ControlFlow;
@@ -390,4 +390,57 @@ fn the_metric_refit_gets_a_state_dependent_metric_out_of_a_curved_valley() {
     );
     assert!(error < 1e-9, "held-out error {error:e}");
     assert!(refits > 0, "no joint step refitted its metric");
+}
+
+/// After a joint step whose refitted metric was kept, on the full batch the
+/// next metric search would solve the refit's very problem again, so it is
+/// skipped (`StepOutcome::Skipped`); and only then. Solving it anyway gives
+/// the model's metric to the bit.
+#[test]
+fn the_metric_search_after_a_kept_refit_is_skipped_and_would_change_nothing() {
+    let data = reference_trajectories::<PositionFriction>(1.5, 3);
+    let mut models = Vec::new();
+    let config = IdentifyConfig {
+        max_iterations: 6,
+        ..IdentifyConfig::default()
+    };
+    let run = identify_with_observer::<PositionFriction, _>(&data.train, &config, |_, model| {
+        models.push(model.clone());
+        ControlFlow::Continue(())
+    })
+    .expect("the identification runs");
+    let iterations = &run.history.iterations;
+    assert_ne!(iterations[0].metric.outcome, StepOutcome::Skipped);
+    let mut skipped = 0;
+    for i in 1..iterations.len() {
+        let refit_kept = iterations[i - 1]
+            .joint
+            .as_ref()
+            .is_some_and(|j| j.metric_refit && j.step.outcome == StepOutcome::Accepted);
+        let record = &iterations[i];
+        assert_eq!(
+            record.metric.outcome == StepOutcome::Skipped,
+            refit_kept,
+            "iteration {}",
+            record.iteration
+        );
+        if refit_kept {
+            skipped += 1;
+            assert_eq!(record.metric.report.iterations, 0);
+            assert_eq!(record.metric.cost_after, record.cost_before);
+            let model = &models[i - 1];
+            let search = metric_search::<PositionFriction>(
+                &data.train,
+                model.entropy_coefficients(),
+                &SearchOptions::default(),
+            )
+            .expect("the metric search runs");
+            assert_eq!(search.coefficients, model.metric_coefficients());
+        }
+    }
+    assert!(
+        skipped > 0,
+        "no refit was kept in {} iterations",
+        iterations.len()
+    );
 }

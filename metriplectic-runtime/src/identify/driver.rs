@@ -520,21 +520,39 @@ fn start_sample<S: MetriplecticSystem, D: IdentificationData>(
 
 /// The steps of one iteration on `batch` from `state.model` (and the trust
 /// radius), accepted under Theorem 1's rule; updates the model and radius.
+/// `metric_fitted`: the model's metric is already the metric search's
+/// optimum at its entropy on this batch ([`metric_is_fitted`]), so that
+/// search is skipped.
 fn iterate_on<S: MetriplecticSystem>(
     batch: &impl IdentificationData,
     config: &IdentifyConfig,
     state: &mut RunState<S>,
+    metric_fitted: bool,
 ) -> Result<(Cost, StepRecord, StepRecord, Option<JointStepRecord>)> {
     let options = &config.search;
     let model = &mut state.model;
     let cost_before = model_cost(model, batch)?;
 
-    let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
-    let metric = decide(model, cost_before, search.report, |m| {
-        *m = Model::new(m.entropy_coefficients().to_vec(), search.coefficients)?
-            .with_certificate(search.certificate)?;
-        Ok(())
-    });
+    let metric = if metric_fitted {
+        StepRecord {
+            report: SearchReport {
+                status: SolveStatus::Solved,
+                iterations: 0,
+                assembly_seconds: 0.0,
+                solver_seconds: 0.0,
+                cost: Some(cost_before),
+            },
+            outcome: StepOutcome::Skipped,
+            cost_after: cost_before,
+        }
+    } else {
+        let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
+        decide(model, cost_before, search.report, |m| {
+            *m = Model::new(m.entropy_coefficients().to_vec(), search.coefficients)?
+                .with_certificate(search.certificate)?;
+            Ok(())
+        })
+    };
     let search = entropy_search::<S>(batch, model.metric_coefficients(), options)?;
     let entropy = decide(model, metric.cost_after, search.report, |m| {
         m.set_entropy_coefficients(search.coefficients)
@@ -625,6 +643,24 @@ fn refit_metric<S: MetriplecticSystem>(
     Ok(true)
 }
 
+/// Whether the current model's metric is the metric search's optimum at
+/// its entropy on the coming batch: the batches are the full pool, and the
+/// previous iteration of this phase (warm-up or not) ended with an
+/// accepted joint step whose metric [`refit_metric`] fitted at the entropy
+/// the model now has. The metric search would solve that same problem
+/// again (the solves are deterministic), so it is skipped. Derived from the
+/// history alone, so a resumed run decides as the uninterrupted one did.
+fn metric_is_fitted(config: &IdentifyConfig, history: &History, warm_up: bool) -> bool {
+    config.batch_size.is_none()
+        && history.iterations.last().is_some_and(|last| {
+            last.warm_up == warm_up
+                && !last.polish
+                && last.joint.as_ref().is_some_and(|joint| {
+                    joint.metric_refit && joint.step.outcome == StepOutcome::Accepted
+                })
+        })
+}
+
 /// The data's scale for the relative tolerance: the mean |target| per
 /// component (1 when every target is zero, so that the tolerance is then absolute).
 fn data_scale(data: &impl IdentificationData) -> f64 {
@@ -678,7 +714,8 @@ where
             }
         };
         let batch = batch.as_ref().unwrap_or(&split.pool);
-        let (cost_before, metric, entropy, joint) = iterate_on(batch, config, &mut state)?;
+        let fitted = metric_is_fitted(config, &state.history, warm_up);
+        let (cost_before, metric, entropy, joint) = iterate_on(batch, config, &mut state, fitted)?;
 
         let accepted = [
             Some(&metric),
@@ -815,7 +852,7 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
         );
     if polishing {
         let best = state.best.clone();
-        let (cost_before, metric, entropy, joint) = iterate_on(data, config, &mut state)?;
+        let (cost_before, metric, entropy, joint) = iterate_on(data, config, &mut state, false)?;
         let score = model_cost(&state.model, split.validation.as_ref().unwrap_or(data))?;
         state.history.iterations.push(IterationRecord {
             iteration: state.history.iterations.len() + 1,

@@ -20,6 +20,13 @@ pub enum StepOutcome {
     /// The solve failed (status not usable, or non-finite coefficients);
     /// the current model was kept.
     RejectedFailed,
+    /// Nothing was solved: the current model is already this subproblem's
+    /// optimum on this batch. A metric search is skipped when the previous
+    /// iteration, on the same full batch, ended with an accepted joint step
+    /// whose metric the metric search refitted at the current entropy: the
+    /// search would solve that very problem again. The report then has
+    /// status `Solved`, 0 iterations, 0 seconds and the current cost.
+    Skipped,
 }
 
 /// One subproblem of one iteration.
@@ -220,14 +227,17 @@ impl History {
         })
     }
 
-    /// Counts of each solver status over both subproblems: (metric, entropy).
+    /// Counts of each solver status over both subproblems: (metric,
+    /// entropy). Skipped steps ([`StepOutcome::Skipped`]) solved nothing
+    /// and are not counted.
     pub fn status_counts(&self) -> Vec<(SolveStatus, usize, usize)> {
         let mut counts: Vec<(SolveStatus, usize, usize)> = Vec::new();
         for r in &self.iterations {
-            for (status, is_metric) in [
-                (r.metric.report.status, true),
-                (r.entropy.report.status, false),
-            ] {
+            for (step, is_metric) in [(&r.metric, true), (&r.entropy, false)] {
+                if step.outcome == StepOutcome::Skipped {
+                    continue;
+                }
+                let status = step.report.status;
                 let slot = match counts.iter().position(|c| c.0 == status) {
                     Some(i) => i,
                     None => {
