@@ -2,7 +2,8 @@
 //! paper: a double well with drag growing with speed (2-D) and a rigid body
 //! with drag growing with its angular momentum (3-D). Both declare a region
 //! (`region ball(…)`), so the metric search certifies K(x) ⪰ 0 for every
-//! state and K(x) ⪯ ηI on the region, and both start cold, from S = 0.
+//! state and K(x) ⪯ ηI on the region, and both start cold, from the
+//! library's default start (nothing of the truth is used).
 //!
 //! ```sh
 //! cargo run --release --example speed_dependent_drag -- --help

@@ -54,7 +54,7 @@ pub fn rigid_body_so3() -> Experiment {
 }
 
 /// Speed-dependent drag in a double well ([`crate::systems::DragDuffing`]),
-/// identified from a cold start (S = 0).
+/// identified from a cold start (the library's default start).
 pub fn drag_duffing() -> Experiment {
     Experiment {
         name: "drag_duffing",
@@ -73,7 +73,7 @@ pub fn drag_duffing() -> Experiment {
 }
 
 /// A rigid body with drag growing with |p| ([`crate::systems::DragRigidBody`]),
-/// identified from a cold start (S = 0).
+/// identified from a cold start (the library's default start).
 pub fn drag_rigid_body() -> Experiment {
     Experiment {
         name: "drag_rigid_body",

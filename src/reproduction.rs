@@ -83,7 +83,8 @@ pub struct Options {
     /// Save `<out>/checkpoint.json` every this many iterations (and on stop).
     #[arg(long, default_value_t = 10)]
     pub checkpoint_every: usize,
-    /// Start from the entropy S = 0 (nothing of the truth used) whatever the
+    /// Start cold, from the library's default start (the entropy fitted at
+    /// the default metric; nothing of the truth used), whatever the
     /// experiment's default start.
     #[arg(long)]
     pub cold_start: bool,
@@ -155,8 +156,10 @@ pub struct Experiment {
     /// Standard deviation of the Gaussian perturbation of the true entropy
     /// coefficients that gives the initial entropy.
     pub initial_entropy_std: f64,
-    /// Start from the entropy S = 0 instead (a cold start: nothing of the
-    /// truth is used); `initial_entropy_std` is then unused.
+    /// Start cold instead, from the library's default start
+    /// ([`IdentifyConfig::initial_entropy`] `None`: the entropy fitted at the
+    /// default metric; nothing of the truth is used); `initial_entropy_std`
+    /// is then unused.
     pub cold_start: bool,
     /// Coefficient bound η.
     pub eta: f64,
@@ -349,11 +352,17 @@ pub fn run_until<S: MetriplecticSystem>(
         max_iterations: iterations,
         tolerance: options.tolerance,
         seed: options.seed,
-        initial_entropy: Some(if experiment.cold_start || options.cold_start {
-            vec![0.0; S::entropy_coefficient_count()]
+        // A cold start is the library's own default start (None): nothing
+        // of the truth is used.
+        initial_entropy: if experiment.cold_start || options.cold_start {
+            None
         } else {
-            perturbed_entropy::<S>(&truth, experiment.initial_entropy_std, options.seed)?
-        }),
+            Some(perturbed_entropy::<S>(
+                &truth,
+                experiment.initial_entropy_std,
+                options.seed,
+            )?)
+        },
         scheme: options.scheme.to_config(),
         search: SearchOptions {
             eta: experiment.eta,

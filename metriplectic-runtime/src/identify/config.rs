@@ -91,8 +91,9 @@ pub struct IdentifyConfig {
     /// set; with no gauge and no [`initial_entropy`](Self::initial_entropy)
     /// either, the identity times 1, 0.1 or 0.01 (while each fits the
     /// start at least 10% better than the last), or else 10 if that does
-    /// (scales up to the bound η; `docs/method.md` §3, "The start's metric
-    /// scale").
+    /// (scales up to the bound η; a start that already fits to
+    /// [`tolerance`](Self::tolerance) is kept; `docs/method.md` §3, "The
+    /// start's metric scale").
     pub initial_metric: Option<Vec<f64>>,
     /// Options of every search: the coefficient bound η, the SOS tables and
     /// the solver. Default [`SearchOptions::default`] (η = 20).

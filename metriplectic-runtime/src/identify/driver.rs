@@ -437,14 +437,15 @@ const SCALES_UP: [f64; 1] = [10.0];
 const START_MARGIN: f64 = 0.9;
 
 /// A fitted start: its cost on the batch, the entropy and the metric.
-type Start = (f64, Vec<f64>, Vec<f64>);
+type Start = (Cost, Vec<f64>, Vec<f64>);
 
 /// The default start with neither an initial entropy nor an initial metric:
 /// [`fitted_start`] with the default start metric, then with it times 0.1
 /// and 0.01 while each fits better, or else times 10 (scales within the
 /// bound η), keeping the pair whose entropy fits the batch best; with a
-/// gauge, which fixes the scale, the default metric alone. Returns
-/// (entropy, metric).
+/// gauge, which fixes the scale, the default metric alone. A start that
+/// already fits to the run's tolerance ends the walk: below it, "better"
+/// would compare rounding errors. Returns (entropy, metric).
 ///
 /// The identity metric is a guess of the metric's size in the data's
 /// units. When the truth is ten times smaller, the entropy fitted at the
@@ -465,17 +466,24 @@ fn scaled_start<S: MetriplecticSystem>(
     let fit = |scale: f64| -> Result<Option<Start>> {
         let metric: Vec<f64> = unit.iter().map(|t| t * scale).collect();
         Ok(start_fit::<S>(batch, config, &metric)?
-            .and_then(|(entropy, cost)| cost.map(|cost| (cost.sum, entropy, metric))))
+            .and_then(|(entropy, cost)| cost.map(|cost| (cost, entropy, metric))))
     };
+    let fitted = |cost: &Cost| cost.per_component <= config.tolerance * data_scale(batch);
     // Walks along `scales` while each fits better than the best so far.
     let walk = |scales: &[f64], best: &mut Option<Start>| -> Result<bool> {
         let mut moved = false;
         // The default metric's largest eigenvalue is 1: c·metric ⪯ ηI for c ≤ η.
         for &scale in scales.iter().filter(|&&c| c <= config.search.eta) {
+            if best
+                .as_ref()
+                .is_some_and(|(incumbent, _, _)| fitted(incumbent))
+            {
+                break;
+            }
             let Some(start) = fit(scale)? else { break };
             if !best
                 .as_ref()
-                .is_none_or(|(incumbent, _, _)| start.0 < START_MARGIN * incumbent)
+                .is_none_or(|(incumbent, _, _)| start.0.sum < START_MARGIN * incumbent.sum)
             {
                 break;
             }
