@@ -75,3 +75,9 @@ pub fn model_cost<S: MetriplecticSystem>(
 fn l1_distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum()
 }
+
+/// The data's scale for the relative tolerance: the mean |target| per
+/// component (1 when every target is zero, so that the tolerance is then absolute).
+pub(crate) fn data_scale(data: &impl IdentificationData) -> f64 {
+    data.equations().scale()
+}

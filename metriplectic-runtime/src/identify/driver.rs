@@ -8,23 +8,18 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::checkpoint;
-use super::config::{IdentifyConfig, IterationScheme, Stagnation, TrustRegion, Validation};
-use super::cost::{model_cost, Cost};
-use super::history::{
-    History, IterationRecord, JointStepRecord, StepOutcome, StepRecord, StopReason,
-};
-use super::search::{
-    entropy_search, joint_step, metric_search, JointStep, SearchOptions, SearchReport,
-};
+use super::config::{IdentifyConfig, IterationScheme, Validation};
+use super::cost::{data_scale, model_cost, Cost};
+use super::history::{History, IterationRecord, StepOutcome, StopReason};
+use super::iteration::{iterate_on, metric_is_fitted};
+use super::start::{initial_coefficients, start_sample};
 use super::state::RunState;
+use super::warm_up::{warm_up, warms_up};
 use super::warnings::{data_warnings, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{Error, Result};
-use crate::model::classical::{self, degenerate_metric, Equalities};
-use crate::model::{check_metric_coefficients, identity_metric, Model};
-
-use crate::solve::SolveStatus;
+use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
 /// Result of [`identify`].
@@ -57,11 +52,12 @@ pub struct Identification<S: MetriplecticSystem> {
 ///
 /// # Iteration schemes
 ///
-/// [`IterationScheme::Alternating`] (the default) is the paper's algorithm:
-/// metric search, then entropy search. [`IterationScheme::AlternatingThenJoint`]
-/// adds, on the same batch, a joint linearised step in both blocks inside an
-/// adaptive trust region ([`joint_step`]), accepted under the same
-/// rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
+/// [`IterationScheme::Alternating`] ([`IdentifyConfig::paper`]'s) is the
+/// paper's algorithm: metric search, then entropy search.
+/// [`IterationScheme::AlternatingThenJoint`] (the default) adds, on the
+/// same batch, a joint linearised step in both blocks inside an adaptive
+/// trust region ([`joint_step`](super::joint_step)), accepted under the
+/// same rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
 /// optimal, the pair not jointly stationary); the joint step removes that.
 ///
 /// # Warm-up
@@ -162,15 +158,7 @@ where
     let split = Split::new(data, config)?;
     let sample = start_sample::<S, _>(&split.pool, config)?;
     let start_batch = sample.as_ref().unwrap_or(&split.pool);
-    let (entropy, metric) = match (&config.initial_entropy, &config.initial_metric) {
-        (Some(entropy), Some(metric)) => (entropy.clone(), metric.clone()),
-        (Some(entropy), None) => (entropy.clone(), default_start_metric::<S>(&config.search)?),
-        (None, Some(metric)) => (
-            fitted_start::<S>(start_batch, config, metric)?,
-            metric.clone(),
-        ),
-        (None, None) => scaled_start::<S>(start_batch, config)?,
-    };
+    let (entropy, metric) = initial_coefficients::<S>(start_batch, config)?;
     let state = RunState::start(Model::<S>::new(entropy, metric)?, config);
     let mut observer = observer;
     let state = match sample {
@@ -187,7 +175,7 @@ where
 
 impl<S: MetriplecticSystem> RunState<S> {
     /// A run about to take its first iteration from `model`.
-    fn start(model: Model<S>, config: &IdentifyConfig) -> Self {
+    pub(super) fn start(model: Model<S>, config: &IdentifyConfig) -> Self {
         Self {
             model,
             history: History::default(),
@@ -203,107 +191,6 @@ impl<S: MetriplecticSystem> RunState<S> {
             since_improvement: 0,
         }
     }
-}
-
-/// Whether a run warms up on the start's subsample `sample` of `pool`
-/// ([`IdentifyConfig::warm_up`]): full-batch runs with an iteration to
-/// spare, on a pool of at least twice the subsample. Below that the
-/// warm-up's iterations cost more than the iterations on all the data they
-/// save: on exact data three on the subsample and one on all replace about
-/// three on all.
-fn warms_up<D: IdentificationData>(config: &IdentifyConfig, sample: &D, pool: &D) -> bool {
-    config.batch_size.is_none()
-        && config.warm_up
-        && config.max_iterations > 1
-        && 2 * sample.equation_count() <= pool.equation_count()
-}
-
-/// A warm-up iteration continues only while it divides the subsample's cost
-/// by at least this much: exact data fall by orders of magnitude per
-/// iteration until they fit, noisy data stop improving after one or two,
-/// and their run on all the data needs its own iterations anyway.
-const WARM_UP_PROGRESS: f64 = 0.5;
-
-/// The warm-up of a full-batch run ([`IdentifyConfig::warm_up`]): iterations
-/// on the start's subsample `sample`, recorded and observed as the run's
-/// first, while each halves its cost, to the tolerance or to all but one of
-/// the iteration budget. Returns the state the run on all the data starts
-/// from: the model reached, the trust radius, the warm-up's records, and
-/// nothing of its scores (those were on the subsample). If no step of the
-/// warm-up could be solved, the run starts from `state` as it was.
-fn warm_up<S, D, F>(
-    sample: &D,
-    config: &IdentifyConfig,
-    state: RunState<S>,
-    observer: &mut F,
-) -> Result<RunState<S>>
-where
-    S: MetriplecticSystem,
-    D: IdentificationData,
-    F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
-{
-    let phase = IdentifyConfig {
-        max_iterations: config.max_iterations - 1,
-        stagnation: Some(Stagnation {
-            window: 1,
-            relative_improvement: WARM_UP_PROGRESS,
-        }),
-        checkpoint: None,
-        ..config.clone()
-    };
-    let split = Split::new(sample, &phase)?;
-    let start = state.model.clone();
-    // A stop asked for in the warm-up ends the run, even in an iteration
-    // that also ended the warm-up by converging.
-    let mut interrupted = false;
-    let mut watch = |record: &IterationRecord, model: &Model<S>| {
-        let flow = observer(record, model);
-        interrupted |= flow.is_break();
-        flow
-    };
-    match iterate(sample, &phase, &split, state, &mut watch, true) {
-        Ok(warm) => Ok(RunState {
-            history: warm.history,
-            radius: warm.radius,
-            ever_accepted: warm.ever_accepted,
-            stopped: interrupted.then_some(StopReason::Interrupted),
-            ..RunState::start(warm.model, config)
-        }),
-        Err(Error::IdentificationFailed { .. }) => Ok(RunState::start(start, config)),
-        Err(error) => Err(error),
-    }
-}
-
-/// The default start metric: the identity, or for a classical system
-/// (where the identity breaks K∇H ≡ 0) the degenerate metric
-/// |∇H|² I − ∇H ∇Hᵀ with largest eigenvalue 1 on the region, or, where the
-/// metric basis cannot hold that, the identity projected onto K∇H ≡ 0 if
-/// the projection is a non-zero metric the certificate accepts; scaled to
-/// the gauge if one is set.
-fn default_start_metric<S: MetriplecticSystem>(options: &SearchOptions) -> Result<Vec<f64>> {
-    let mut metric = if S::CLASSICAL.is_some() {
-        degenerate_metric::<S>(1.0).or_else(|unrepresentable| {
-            let mut projected = identity_metric::<S>(1.0);
-            let free = options.support.free_metric::<S>(options.sos);
-            Equalities::new(classical::metric_rows::<S>(), &free)
-                .project_coefficients(&mut projected);
-            let nonzero = projected.iter().any(|t| t.abs() > 1e-12);
-            match check_metric_coefficients::<S>("initial metric coefficients", &projected) {
-                Ok(()) if nonzero => Ok(projected),
-                _ => Err(unrepresentable),
-            }
-        })?
-    } else {
-        identity_metric::<S>(1.0)
-    };
-    let gauge = options.gauge;
-    if let Some(gauge) = gauge {
-        let (value, wanted) = (gauge.value_at::<S>(&metric), gauge.row::<S>().1);
-        if value > 0.0 {
-            metric.iter_mut().for_each(|t| *t *= wanted / value);
-        }
-    }
-    Ok(metric)
 }
 
 /// Continues the run saved in the checkpoint at `path` (written by a run
@@ -356,13 +243,13 @@ where
 }
 
 /// The samples batches are drawn from and those that score the model.
-struct Split<D> {
-    pool: D,
-    validation: Option<D>,
+pub(super) struct Split<D> {
+    pub(super) pool: D,
+    pub(super) validation: Option<D>,
 }
 
 impl<D: IdentificationData> Split<D> {
-    fn new(data: &D, config: &IdentifyConfig) -> Result<Self> {
+    pub(super) fn new(data: &D, config: &IdentifyConfig) -> Result<Self> {
         let count = data.equation_count();
         let held_out = config.held_out(count);
         if config.batch_size.is_none() {
@@ -395,286 +282,6 @@ impl<D: IdentificationData> Split<D> {
     }
 }
 
-/// The default start: the entropy search's fit with the initial metric, on
-/// the batch pool (a minibatch run: q of its equations), subsampled to
-/// [`start_samples`](IdentifyConfig::start_samples) (the samples drawn from
-/// a stream of their own), or zeros if that solve fails.
-///
-/// Starting from S = 0 instead misleads the first metric search: it fits
-/// (Π + K)∇H to the data, where the best K is often near 0, and with K ≈ 0
-/// the entropy search has nothing to act on.
-fn fitted_start<S: MetriplecticSystem>(
-    batch: &impl IdentificationData,
-    config: &IdentifyConfig,
-    metric: &[f64],
-) -> Result<Vec<f64>> {
-    Ok(start_fit::<S>(batch, config, metric)?
-        .map(|(entropy, _)| entropy)
-        .unwrap_or_else(|| vec![0.0; S::entropy_coefficient_count()]))
-}
-
-/// The entropy search's fit with `metric` and its cost on `batch`, if the
-/// solve ended usable with finite coefficients.
-fn start_fit<S: MetriplecticSystem>(
-    batch: &impl IdentificationData,
-    config: &IdentifyConfig,
-    metric: &[f64],
-) -> Result<Option<(Vec<f64>, Option<Cost>)>> {
-    let search = entropy_search::<S>(batch, metric, &config.search)?;
-    let usable =
-        search.report.status.is_usable() && search.coefficients.iter().all(|c| c.is_finite());
-    Ok(usable.then_some((search.coefficients, search.report.cost)))
-}
-
-/// Scales of the default start metric that [`scaled_start`] walks to from
-/// the unit, downwards and upwards, a decade apart: only the order of
-/// magnitude matters for where the iteration begins.
-const SCALES_DOWN: [f64; 2] = [0.1, 0.01];
-const SCALES_UP: [f64; 1] = [10.0];
-/// A scale replaces the best so far only if its start fits at least this
-/// much better (a cost below this fraction of the best): where the scale
-/// is free (Π∇E = 0, every scale fits alike) the unit metric stays.
-const START_MARGIN: f64 = 0.9;
-
-/// A fitted start: its cost on the batch, the entropy and the metric.
-type Start = (Cost, Vec<f64>, Vec<f64>);
-
-/// The default start with neither an initial entropy nor an initial metric:
-/// [`fitted_start`] with the default start metric, then with it times 0.1
-/// and 0.01 while each fits better, or else times 10 (scales within the
-/// bound η), keeping the pair whose entropy fits the batch best; with a
-/// gauge, which fixes the scale, the default metric alone. A start that
-/// already fits to the run's tolerance ends the walk: below it, "better"
-/// would compare rounding errors. Returns (entropy, metric).
-///
-/// The identity metric is a guess of the metric's size in the data's
-/// units. When the truth is ten times smaller, the entropy fitted at the
-/// identity absorbs the difference, and the alternation can settle in a
-/// local minimum of the biconvex cost: on a 4-state Lie–Poisson system
-/// with K of size 0.1–0.4, two of three datasets stalled at a held-out
-/// error of 6e-2 from the identity and converged to 1e-12 from 0.1·I,
-/// whose start fitted the data three times better. The walk costs two
-/// more entropy searches on the start's subsample (three when 0.1 wins).
-fn scaled_start<S: MetriplecticSystem>(
-    batch: &impl IdentificationData,
-    config: &IdentifyConfig,
-) -> Result<(Vec<f64>, Vec<f64>)> {
-    let unit = default_start_metric::<S>(&config.search)?;
-    if config.search.gauge.is_some() {
-        return Ok((fitted_start::<S>(batch, config, &unit)?, unit));
-    }
-    let fit = |scale: f64| -> Result<Option<Start>> {
-        let metric: Vec<f64> = unit.iter().map(|t| t * scale).collect();
-        Ok(start_fit::<S>(batch, config, &metric)?
-            .and_then(|(entropy, cost)| cost.map(|cost| (cost, entropy, metric))))
-    };
-    let fitted = |cost: &Cost| cost.per_component <= config.tolerance * data_scale(batch);
-    // Walks along `scales` while each fits better than the best so far.
-    let walk = |scales: &[f64], best: &mut Option<Start>| -> Result<bool> {
-        let mut moved = false;
-        // The default metric's largest eigenvalue is 1: c·metric ⪯ ηI for c ≤ η.
-        for &scale in scales.iter().filter(|&&c| c <= config.search.eta) {
-            if best
-                .as_ref()
-                .is_some_and(|(incumbent, _, _)| fitted(incumbent))
-            {
-                break;
-            }
-            let Some(start) = fit(scale)? else { break };
-            if !best
-                .as_ref()
-                .is_none_or(|(incumbent, _, _)| start.0.sum < START_MARGIN * incumbent.sum)
-            {
-                break;
-            }
-            *best = Some(start);
-            moved = true;
-        }
-        Ok(moved)
-    };
-    let mut best = fit(1.0)?;
-    if !walk(&SCALES_DOWN, &mut best)? {
-        walk(&SCALES_UP, &mut best)?;
-    }
-    Ok(match best {
-        Some((_, entropy, metric)) => (entropy, metric),
-        None => (vec![0.0; S::entropy_coefficient_count()], unit),
-    })
-}
-
-/// The start's subsample of the batch pool: at most
-/// [`start_samples`](IdentifyConfig::start_samples) of its samples (a
-/// minibatch run: at most q), but never fewer than ten equations per
-/// entropy coefficient, drawn from a stream of their own; `None` when that
-/// is the whole pool.
-fn start_sample<S: MetriplecticSystem, D: IdentificationData>(
-    pool: &D,
-    config: &IdentifyConfig,
-) -> Result<Option<D>> {
-    let available = pool.equation_count();
-    // Ten equations per coefficient keep the start's L1 fit overdetermined.
-    let enough = (10 * S::entropy_coefficient_count()).div_ceil(S::DIM);
-    let wanted = config
-        .batch_size
-        .unwrap_or(available)
-        .min(config.start_samples.max(enough));
-    if wanted >= available {
-        return Ok(None);
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x57a7_0f5e_a7c4_0000);
-    let indices = rand::seq::index::sample(&mut rng, available, wanted).into_vec();
-    Ok(Some(pool.select(&indices)?))
-}
-
-/// The steps of one iteration on `batch` from `state.model` (and the trust
-/// radius), accepted under Theorem 1's rule; updates the model and radius.
-/// `metric_fitted`: the model's metric is already the metric search's
-/// optimum at its entropy on this batch ([`metric_is_fitted`]), so that
-/// search is skipped.
-fn iterate_on<S: MetriplecticSystem>(
-    batch: &impl IdentificationData,
-    config: &IdentifyConfig,
-    state: &mut RunState<S>,
-    metric_fitted: bool,
-) -> Result<(Cost, StepRecord, StepRecord, Option<JointStepRecord>)> {
-    let options = &config.search;
-    let model = &mut state.model;
-    let cost_before = model_cost(model, batch)?;
-
-    let metric = if metric_fitted {
-        StepRecord {
-            report: SearchReport {
-                status: SolveStatus::Solved,
-                iterations: 0,
-                assembly_seconds: 0.0,
-                solver_seconds: 0.0,
-                cost: Some(cost_before),
-            },
-            outcome: StepOutcome::Skipped,
-            cost_after: cost_before,
-        }
-    } else {
-        let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
-        decide(model, cost_before, search.report, |m| {
-            *m = Model::new(m.entropy_coefficients().to_vec(), search.coefficients)?
-                .with_certificate(search.certificate)?;
-            Ok(())
-        })
-    };
-    let search = entropy_search::<S>(batch, model.metric_coefficients(), options)?;
-    let entropy = decide(model, metric.cost_after, search.report, |m| {
-        m.set_entropy_coefficients(search.coefficients)
-    });
-
-    let joint = match &config.scheme {
-        IterationScheme::Alternating => None,
-        IterationScheme::AlternatingThenJoint(trust) => {
-            let current = entropy.cost_after;
-            let radius = state.radius;
-            let mut step = joint_step::<S>(batch, model, radius, options)?;
-            let metric_refit = refit_metric::<S>(batch, current, &mut step, trust, options)?;
-            let record = decide(model, current, step.report, |m| {
-                *m = Model::new(step.entropy, step.metric)?.with_certificate(step.certificate)?;
-                Ok(())
-            });
-            let ratio = match (record.outcome, step.predicted) {
-                (StepOutcome::Accepted, Some(predicted)) if predicted.sum < current.sum => {
-                    Some((current.sum - record.cost_after.sum) / (current.sum - predicted.sum))
-                }
-                _ => None,
-            };
-            state.radius = trust.update(radius, ratio);
-            Some(JointStepRecord {
-                step: record,
-                radius,
-                predicted: step.predicted,
-                ratio,
-                metric_refit,
-            })
-        }
-    };
-    Ok((cost_before, metric, entropy, joint))
-}
-
-/// Variable projection for a joint step that gained little: when its
-/// candidate (ψ + d, θ′) lowered the batch cost by less than
-/// `trust.good_ratio` of the decrease the linearised model predicted (or
-/// is not a valid model), the metric search refits θ at the step's
-/// entropy ψ + d, and its metric replaces θ′ if it fits the batch better.
-/// Returns whether it did; the refit's times are added to the step's
-/// report, and its status replaces the step's when it is not `Solved`.
-///
-/// The cost is linear in θ for fixed ψ, so θ*(ψ) is one convex solve. Near
-/// a curved valley of the bilinear cost the linearised step's θ′ is what
-/// the dropped term (K(θ′) − K(θ))Jᵀd spoils, the trust region shrinks
-/// until that term is negligible, and the run crawls: with a state-dependent
-/// metric, `DragRigidBody` took 71 iterations (batch 1000), and a 2-D
-/// oscillator with position-dependent friction did not converge in 100,
-/// each step moving one entropy coefficient 1e-4 along its bound. With the
-/// refit they took 12 and 77–93 (`docs/method.md` §3, "The joint step").
-fn refit_metric<S: MetriplecticSystem>(
-    batch: &impl IdentificationData,
-    current: Cost,
-    step: &mut JointStep,
-    trust: &TrustRegion,
-    options: &SearchOptions,
-) -> Result<bool> {
-    let Some(predicted) = step.predicted.filter(|p| p.sum < current.sum) else {
-        return Ok(false);
-    };
-    if !(step.report.status.is_usable() && step.entropy.iter().all(|c| c.is_finite())) {
-        return Ok(false);
-    }
-    let own = step.report.cost.filter(Cost::is_finite).map(|c| c.sum);
-    if own
-        .is_some_and(|own| (current.sum - own) >= trust.good_ratio * (current.sum - predicted.sum))
-    {
-        return Ok(false);
-    }
-    let refit = metric_search::<S>(batch, &step.entropy, options)?;
-    step.report.assembly_seconds += refit.report.assembly_seconds;
-    step.report.solver_seconds += refit.report.solver_seconds;
-    let usable =
-        refit.report.status.is_usable() && refit.coefficients.iter().all(|c| c.is_finite());
-    let Some(cost) = refit.report.cost.filter(|c| usable && c.is_finite()) else {
-        return Ok(false);
-    };
-    if own.is_some_and(|own| cost.sum >= own) {
-        return Ok(false);
-    }
-    step.metric = refit.coefficients;
-    step.certificate = refit.certificate;
-    step.report.cost = Some(cost);
-    if refit.report.status != SolveStatus::Solved {
-        step.report.status = refit.report.status;
-    }
-    Ok(true)
-}
-
-/// Whether the current model's metric is the metric search's optimum at
-/// its entropy on the coming batch: the batches are the full pool, and the
-/// previous iteration of this phase (warm-up or not) ended with an
-/// accepted joint step whose metric [`refit_metric`] fitted at the entropy
-/// the model now has. The metric search would solve that same problem
-/// again (the solves are deterministic), so it is skipped. Derived from the
-/// history alone, so a resumed run decides as the uninterrupted one did.
-fn metric_is_fitted(config: &IdentifyConfig, history: &History, warm_up: bool) -> bool {
-    config.batch_size.is_none()
-        && history.iterations.last().is_some_and(|last| {
-            last.warm_up == warm_up
-                && !last.polish
-                && last.joint.as_ref().is_some_and(|joint| {
-                    joint.metric_refit && joint.step.outcome == StepOutcome::Accepted
-                })
-        })
-}
-
-/// The data's scale for the relative tolerance: the mean |target| per
-/// component (1 when every target is zero, so that the tolerance is then absolute).
-fn data_scale(data: &impl IdentificationData) -> f64 {
-    data.equations().scale()
-}
-
 /// The iterations of [`identify_with_observer`] from `state` on, and the
 /// result.
 fn run<S, D, F>(
@@ -695,7 +302,7 @@ where
 
 /// Iterations on `split` from `state` until a stopping rule holds; their
 /// records are marked `warm_up` as asked.
-fn iterate<S, D, F>(
+pub(super) fn iterate<S, D, F>(
     data: &D,
     config: &IdentifyConfig,
     split: &Split<D>,
@@ -888,40 +495,12 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
     })
 }
 
-/// Accepts a candidate if its solve is usable and its recomputed cost is
-/// finite and lower than `current`; `apply` installs it.
-fn decide<S: MetriplecticSystem>(
-    model: &mut Model<S>,
-    current: Cost,
-    report: SearchReport,
-    apply: impl FnOnce(&mut Model<S>) -> Result<()>,
-) -> StepRecord {
-    let outcome = match report.cost {
-        Some(candidate) if report.status.is_usable() && candidate.is_finite() => {
-            if candidate.sum < current.sum && apply(model).is_ok() {
-                StepOutcome::Accepted
-            } else if candidate.sum < current.sum {
-                StepOutcome::RejectedFailed
-            } else {
-                StepOutcome::RejectedWorse
-            }
-        }
-        _ => StepOutcome::RejectedFailed,
-    };
-    let cost_after = match (outcome, report.cost) {
-        (StepOutcome::Accepted, Some(candidate)) => candidate,
-        _ => current,
-    };
-    StepRecord {
-        report,
-        outcome,
-        cost_after,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::entropy_search;
+    use crate::identify::start::fitted_start;
+    use crate::model::identity_metric;
     use crate::test_system::{reference_data, Quadratic2d};
 
     /// The paper's alternation on the full batch with no stopping rule but
