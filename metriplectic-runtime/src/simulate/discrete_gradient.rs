@@ -109,6 +109,8 @@
 //! times that are multiples of h from t₀ give steps of exactly h. With
 //! `OutputTimes::Steps` every step is an output.
 
+use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
+
 use super::dopri::{interval_offsets, IntegrationStats, OutputTimes};
 use crate::error::{invalid, Result, SimulationError};
 use crate::model::Model;
@@ -460,9 +462,8 @@ struct Stepper<'a, S: MetriplecticSystem> {
 struct Newton {
     /// G′ = Φ′/h (row-major), so that a new step size needs no new differences.
     derivative: Vec<f64>,
-    /// LU factors of I − h G′ with row pivots, for `step` = h.
-    lu: Vec<f64>,
-    pivots: Vec<usize>,
+    /// LU factors of I − h G′ (nalgebra's, partial pivoting), for `step` = h.
+    lu: Option<LU<f64, Dyn, Dyn>>,
     step: f64,
     base: Vec<f64>,
     shifted: Vec<f64>,
@@ -472,8 +473,7 @@ impl Newton {
     fn new(n: usize) -> Self {
         Self {
             derivative: vec![0.0; n * n],
-            lu: vec![0.0; n * n],
-            pivots: vec![0; n],
+            lu: None,
             step: f64::NAN,
             base: vec![0.0; n],
             shifted: vec![0.0; n],
@@ -660,8 +660,10 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
     /// The update J⁻¹(Φ(y) − y) from `self.residual` into `self.update`.
     fn direction(&mut self) {
         self.update.copy_from_slice(&self.residual);
-        if let Some(newton) = &self.newton {
-            lu_solve(&newton.lu, &newton.pivots, &mut self.update);
+        if let Some(lu) = self.newton.as_ref().and_then(|newton| newton.lu.as_ref()) {
+            let n = self.update.len();
+            // Non-singular by construction (`refactor` keeps only factors with normal pivots).
+            lu.solve_mut(&mut DVectorViewMut::from_slice(&mut self.update, n));
         }
     }
 
@@ -702,14 +704,15 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         let Some(mut newton) = self.newton.take() else {
             return;
         };
-        for i in 0..n {
-            for j in 0..n {
-                let identity = if i == j { 1.0 } else { 0.0 };
-                newton.lu[i * n + j] = identity - h * newton.derivative[i * n + j];
-            }
-        }
-        newton.step = h;
-        if lu_factor(&mut newton.lu, &mut newton.pivots) {
+        let matrix = DMatrix::from_fn(n, n, |i, j| {
+            let identity = if i == j { 1.0 } else { 0.0 };
+            identity - h * newton.derivative[i * n + j]
+        });
+        let lu = matrix.lu();
+        // A zero, subnormal or non-finite pivot: fall back to the fixed point.
+        if lu.u().diagonal().iter().all(|pivot| pivot.is_normal()) {
+            newton.lu = Some(lu);
+            newton.step = h;
             self.newton = Some(newton);
         }
     }
@@ -854,52 +857,6 @@ fn multiply(a: &[f64], v: &[f64], out: &mut [f64]) {
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
-/// LU factorisation with partial pivoting of the row-major square `a`, in
-/// place; `false` if a pivot is zero or not finite.
-fn lu_factor(a: &mut [f64], pivots: &mut [usize]) -> bool {
-    let n = pivots.len();
-    for k in 0..n {
-        let Some(p) = (k..n).max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))
-        else {
-            return false;
-        };
-        pivots[k] = p;
-        if p != k {
-            for j in 0..n {
-                a.swap(k * n + j, p * n + j);
-            }
-        }
-        let pivot = a[k * n + k];
-        if !(pivot.is_normal()) {
-            return false;
-        }
-        for i in k + 1..n {
-            let factor = a[i * n + k] / pivot;
-            a[i * n + k] = factor;
-            for j in k + 1..n {
-                a[i * n + j] -= factor * a[k * n + j];
-            }
-        }
-    }
-    true
-}
-
-/// Solves A z = b in place in `b` from [`lu_factor`]'s factors.
-fn lu_solve(lu: &[f64], pivots: &[usize], b: &mut [f64]) {
-    let n = pivots.len();
-    for (k, &p) in pivots.iter().enumerate() {
-        b.swap(k, p);
-    }
-    for i in 0..n {
-        let sum: f64 = (0..i).map(|j| lu[i * n + j] * b[j]).sum();
-        b[i] -= sum;
-    }
-    for i in (0..n).rev() {
-        let sum: f64 = (i + 1..n).map(|j| lu[i * n + j] * b[j]).sum();
-        b[i] = (b[i] - sum) / lu[i * n + i];
-    }
 }
 
 #[cfg(test)]
