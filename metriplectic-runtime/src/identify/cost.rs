@@ -42,15 +42,33 @@ pub fn model_cost<S: MetriplecticSystem>(
     model: &Model<S>,
     data: &impl IdentificationData,
 ) -> Result<Cost> {
+    let residuals = model_residuals(model, data)?;
+    // Summed equation by equation, as the cost has always been rounded.
+    let sum = residuals
+        .chunks(S::DIM)
+        .map(|equation| equation.iter().map(|r| r.abs()).sum::<f64>())
+        .sum();
+    Ok(Cost::from_sum(sum, residuals.len()))
+}
+
+/// The residuals target − f of `model` on `data`, equation by equation and
+/// component by component (the rows of the searches' regressions).
+pub(crate) fn model_residuals<S: MetriplecticSystem>(
+    model: &Model<S>,
+    data: &impl IdentificationData,
+) -> Result<Vec<f64>> {
     check_dataset::<S>(data)?;
     let equations = data.equations();
     let n = S::DIM;
-    let mut sum = 0.0;
+    let mut residuals = Vec::with_capacity(equations.len() * n);
     let mut field = vec![0.0; n];
+    let mut push = |target: &[f64], field: &[f64]| {
+        residuals.extend(target.iter().zip(field).map(|(t, f)| t - f));
+    };
     if equations.terms.is_none() {
         for e in 0..equations.len() {
             model.vector_field_unchecked(equations.state(e), &mut field);
-            sum += l1_distance(equations.target(e), &field);
+            push(equations.target(e), &field);
         }
     } else {
         // Each sample's field once, then every equation's weighted sum.
@@ -66,14 +84,10 @@ pub fn model_cost<S: MetriplecticSystem>(
                     .zip(&fields[j * n..(j + 1) * n])
                     .for_each(|(f, v)| *f += w * v);
             }
-            sum += l1_distance(equations.target(e), &field);
+            push(equations.target(e), &field);
         }
     }
-    Ok(Cost::from_sum(sum, equations.len() * n))
-}
-
-fn l1_distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum()
+    Ok(residuals)
 }
 
 /// The data's scale for the relative tolerance: the mean |target| per

@@ -94,6 +94,12 @@ pub struct JointStepRecord {
     /// Actual decrease over predicted decrease, if the step was accepted
     /// and a decrease was predicted.
     pub ratio: Option<f64>,
+    /// Whether the candidate is the second-order corrected step (taken when
+    /// the linearised step gained less than the trust region's good ratio
+    /// and the corrected one fits the batch better; its solve's times are in
+    /// `step`). Default `false`, also for records saved before it existed.
+    #[serde(default)]
+    pub second_order: bool,
     /// Whether the candidate's metric is the metric search's refit at the
     /// step's entropy rather than the linearised step's own (taken when
     /// that gained less than the trust region's good ratio and the refit
@@ -145,6 +151,7 @@ impl History {
         "joint_radius",
         "joint_predicted_per_component",
         "joint_ratio",
+        "joint_second_order",
         "joint_metric_refit",
         "validation_per_component",
         "warm_up",
@@ -209,9 +216,10 @@ impl History {
                         .map(|c| number(c.per_component))
                         .unwrap_or_default(),
                     joint.ratio.map(number).unwrap_or_default(),
+                    joint.second_order.to_string(),
                     joint.metric_refit.to_string(),
                 ]),
-                None => row.extend(std::iter::repeat_n(String::new(), 4)),
+                None => row.extend(std::iter::repeat_n(String::new(), 5)),
             }
             row.push(
                 r.validation_cost

@@ -6,7 +6,7 @@ use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
-use crate::identify::cost::{model_cost, Cost};
+use crate::identify::cost::{model_cost, model_residuals, Cost};
 use crate::model::classical::{self, Equalities};
 use crate::model::{theta_from_gram, GramCertificate, Model};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
@@ -92,6 +92,82 @@ pub fn joint_step<S: MetriplecticSystem>(
     radius: f64,
     options: &SearchOptions,
 ) -> Result<JointStep> {
+    step_with_offset::<S>(data, model, radius, options, None)
+}
+
+/// The joint step from `model` again, with the second-order correction
+/// taken from its first candidate `trial`: `None` if `trial` is no valid
+/// model (then there is nothing to correct with).
+///
+/// The linearised residual r̃ᵢ(θ′, d) misses the bilinear term
+/// Bᵢ = (K(xᵢ; θ′) − K(xᵢ; θ)) Jᵢᵀ d. At the trial point (θ′₁, d₁) it is
+/// known exactly, as the linearised residual minus the true one, and the
+/// corrected program fits r̃ᵢ(θ′, d) − Bᵢ(θ′₁, d₁): the same program with
+/// each data row's target shifted, whose residual equals the true one at
+/// the trial point. This is the second-order correction of sequential
+/// linear programming for nonsmooth penalties (Fletcher 1982; the remedy
+/// for the Maratos effect): near an exact fit, the residuals that vanish
+/// at the solution form a curved set, a linear step leaves it by O(|d|²),
+/// and the trust region shrinks until that loss is small against the
+/// step's gain; the corrected step follows the set to O(|d|³).
+pub(crate) fn corrected_joint_step<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+    model: &Model<S>,
+    radius: f64,
+    options: &SearchOptions,
+    trial: &JointStep,
+) -> Result<Option<JointStep>> {
+    let Ok(candidate) = Model::<S>::new(trial.entropy.clone(), trial.metric.clone()) else {
+        return Ok(None);
+    };
+    let offset = Offset {
+        true_residuals: model_residuals(&candidate, data)?,
+        metric: &trial.metric,
+        entropy: &trial.entropy,
+    };
+    step_with_offset::<S>(data, model, radius, options, Some(offset)).map(Some)
+}
+
+/// A trial point of the joint step and its true residuals, row by row: what
+/// [`corrected_joint_step`] shifts the targets by.
+struct Offset<'a> {
+    true_residuals: Vec<f64>,
+    metric: &'a [f64],
+    entropy: &'a [f64],
+}
+
+impl Offset<'_> {
+    /// Shifts `regression`'s targets by the bilinear term at the trial
+    /// point, the linearised residual there minus the true one; `psi` is the
+    /// current entropy on the free coefficients `free`.
+    fn apply(&self, regression: &mut Regression, free: &[usize], psi: &[f64]) {
+        let step: Vec<f64> = self
+            .metric
+            .iter()
+            .copied()
+            .chain(free.iter().zip(psi).map(|(&k, v)| self.entropy[k] - v))
+            .collect();
+        let width = regression.width;
+        for ((target, row), truth) in regression
+            .target
+            .iter_mut()
+            .zip(regression.rows.chunks_exact(width))
+            .zip(&self.true_residuals)
+        {
+            let linearised = *target - row.iter().zip(&step).map(|(a, z)| a * z).sum::<f64>();
+            *target -= linearised - truth;
+        }
+    }
+}
+
+/// [`joint_step`], its data rows' targets shifted by `offset` if given.
+fn step_with_offset<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+    model: &Model<S>,
+    radius: f64,
+    options: &SearchOptions,
+    offset: Option<Offset<'_>>,
+) -> Result<JointStep> {
     check_dataset::<S>(data)?;
     options.validate_for::<S>()?;
     if !(radius.is_finite() && radius > 0.0) {
@@ -113,15 +189,19 @@ pub fn joint_step<S: MetriplecticSystem>(
     // residual's constant part.
     // One copy of the data's rows at a time: at q = 16000 samples of a
     // 6-state system with 923 entropy coefficients each takes 725 MB.
-    let regression = {
+    let mut regression = {
         let mut entropy_columns = entropy_regression::<S>(data, theta)?;
         if p < all_psi.len() {
             entropy_columns = entropy_columns.select_columns(&free);
         }
         metric_regression::<S>(data, all_psi)?.with_columns_of(&entropy_columns)
     };
-    // The trust region in units of each coefficient's effect on the data.
+    // The trust region in units of each coefficient's effect on the data,
+    // the same for the corrected step as for the first.
     let widths = trust_widths(&regression, theta, &psi);
+    if let Some(offset) = &offset {
+        offset.apply(&mut regression, &free, &psi);
+    }
     let data_rows = regression.len();
     let penalty = step_penalty(&regression, theta);
     let mut problem = L1Problem::new(
@@ -162,7 +242,8 @@ pub fn joint_step<S: MetriplecticSystem>(
     let solution = solve_l1(&problem, &options.solver)?;
 
     let step = &solution.coefficients()[..t_len + p];
-    // The prediction is the linearised data cost, without the penalty.
+    // The prediction is the linearised data cost, without the penalty (for
+    // the corrected step: the corrected model's).
     let predicted = step.iter().all(|v| v.is_finite()).then(|| {
         let cost = problem.regression().l1_residual_of_first(data_rows, step);
         Cost::from_sum(cost, data_rows)

@@ -6,7 +6,7 @@
 //! model — the solver's own objective is never trusted for decisions.
 
 mod entropy;
-mod joint;
+pub(crate) mod joint;
 mod metric;
 mod sos;
 
