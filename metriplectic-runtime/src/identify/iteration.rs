@@ -180,7 +180,8 @@ fn correct_step<S: MetriplecticSystem>(
 /// metric, `DragRigidBody` took 71 iterations (batch 1000), and a 2-D
 /// oscillator with position-dependent friction did not converge in 100,
 /// each step moving one entropy coefficient 1e-4 along its bound. With the
-/// refit they took 12 and 77–93 (`docs/method.md` §3, "The joint step").
+/// refit they took 12 and 77–93 (`docs/method.md` §3, "The joint step"),
+/// and the friction system 11–15 with [`correct_step`] before the refit.
 fn refit_metric<S: MetriplecticSystem>(
     batch: &impl IdentificationData,
     current: Cost,
