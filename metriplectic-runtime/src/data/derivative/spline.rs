@@ -474,6 +474,7 @@ impl Evaluation {
 
 #[cfg(test)]
 mod tests {
+    use super::super::{differentiate, fit_smoothing_spline, DerivativeMethod};
     use super::*;
     use nalgebra::DMatrix;
 
@@ -562,6 +563,302 @@ mod tests {
             } else {
                 assert_eq!(fit.gcv, None, "λ = {lambda}");
             }
+        }
+    }
+
+    /// The smoother x ↦ f(t) is linear for a fixed λ: its trace from the
+    /// impulse responses and the cross-validation score from the fitted
+    /// values match what the fit reports.
+    #[test]
+    fn smoothing_spline_reports_its_trace_and_score() {
+        let t = jittered(40);
+        let x: Vec<f64> = t
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (1.3 * t).sin() + 0.05 * (7.1 * k as f64).cos())
+            .collect();
+        let n = t.len() as f64;
+        for lambda in [0.0, 1e-4, 1e-2, 1.0, 1e3] {
+            let fit = fit_smoothing_spline(&t, &x, Some(lambda)).unwrap();
+            let trace: f64 = (0..t.len())
+                .map(|k| {
+                    let mut e = vec![0.0; t.len()];
+                    e[k] = 1.0;
+                    fit_smoothing_spline(&t, &e, Some(lambda)).unwrap().values[k]
+                })
+                .sum();
+            assert!(
+                (fit.degrees_of_freedom - trace).abs() < 1e-7 * n,
+                "λ = {lambda}: {} vs {trace}",
+                fit.degrees_of_freedom
+            );
+            let denominator = n - 1.4 * fit.degrees_of_freedom;
+            if denominator > 0.0 {
+                let rss: f64 = x
+                    .iter()
+                    .zip(&fit.values)
+                    .map(|(a, b)| (a - b).powi(2))
+                    .sum();
+                let score = n * rss / denominator.powi(2);
+                let found = fit.gcv.unwrap();
+                assert!(
+                    (found / score - 1.0).abs() < 1e-6,
+                    "λ = {lambda}: {found} vs {score}"
+                );
+            } else {
+                assert_eq!(fit.gcv, None, "λ = {lambda}");
+            }
+            if lambda == 0.0 {
+                assert!((fit.degrees_of_freedom - n).abs() < 1e-9);
+            }
+        }
+        assert!(fit_smoothing_spline(&t, &x, Some(1e3))
+            .unwrap()
+            .gcv
+            .is_some());
+        // The chosen λ is a minimum of GCV: nudging it either way does not help.
+        let chosen = fit_smoothing_spline(&t, &x, None).unwrap();
+        let score = |lambda: f64| {
+            fit_smoothing_spline(&t, &x, Some(lambda))
+                .unwrap()
+                .gcv
+                .unwrap()
+        };
+        let best = chosen.gcv.unwrap();
+        assert!(best <= score(chosen.lambda * 1.5) * (1.0 + 1e-9));
+        assert!(best <= score(chosen.lambda / 1.5) * (1.0 + 1e-9));
+        assert!(chosen.degrees_of_freedom > 2.0 && chosen.degrees_of_freedom < n);
+    }
+
+    #[test]
+    fn smoothing_spline_handles_lines_constants_and_extreme_smoothing() {
+        let t = jittered(12);
+        let line: Vec<f64> = t.iter().map(|t| 3.0 - 2.0 * t).collect();
+        for lambda in [
+            None,
+            Some(0.0),
+            Some(1e-300),
+            Some(1.0),
+            Some(1e300),
+            Some(f64::MAX),
+        ] {
+            let d = fit_smoothing_spline(&t, &line, lambda).unwrap().derivatives;
+            assert!(
+                d.iter().all(|d| (d + 2.0).abs() < 1e-9),
+                "{lambda:?}: {d:?}"
+            );
+        }
+        let constant = vec![7.5; 12];
+        let fit = fit_smoothing_spline(&t, &constant, None).unwrap();
+        assert!(
+            fit.derivatives.iter().all(|d| *d == 0.0),
+            "{:?}",
+            fit.derivatives
+        );
+        assert!(fit.values.iter().all(|v| *v == 7.5));
+        // Huge λ: the least-squares line through noisy data.
+        let wiggly: Vec<f64> = t.iter().map(|t| t + 0.1 * (9.0 * t).sin()).collect();
+        let d = fit_smoothing_spline(&t, &wiggly, Some(1e300))
+            .unwrap()
+            .derivatives;
+        assert!(
+            d.iter().all(|v| (v - d[0]).abs() < 1e-9 && v.is_finite()),
+            "{d:?}"
+        );
+        // Huge offsets and scales change nothing but the units.
+        let shifted: Vec<f64> = wiggly.iter().map(|v| 1e6 + 1e3 * v).collect();
+        let a = fit_smoothing_spline(&t, &wiggly, None).unwrap();
+        let b = fit_smoothing_spline(&t, &shifted, None).unwrap();
+        for (a, b) in a.derivatives.iter().zip(&b.derivatives) {
+            assert!((1e3 * a - b).abs() < 1e-6 * b.abs().max(1.0), "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn smoothing_spline_rejects_short_series_and_bad_lambda() {
+        let t = [0.0, 1.0, 2.0];
+        let err = differentiate(&t, &[0.0; 3], &DerivativeMethod::smoothing_spline()).unwrap_err();
+        let message = err.to_string();
+        assert!(
+            message.contains("at least 4 samples") && message.contains("has 3"),
+            "{message}"
+        );
+        let t = [0.0, 1.0, 2.0, 3.0];
+        for lambda in [-1.0, f64::NAN, f64::INFINITY] {
+            let method = DerivativeMethod::SmoothingSpline {
+                lambda: Some(lambda),
+            };
+            let message = differentiate(&t, &[0.0; 4], &method)
+                .unwrap_err()
+                .to_string();
+            assert!(message.contains("smoothing-spline λ"), "{message}");
+        }
+        // Times too close for the reciprocal spacing: blamed, not NaN.
+        let t = [0.0, 1e-310, 1.0, 2.0, 3.0];
+        let message = differentiate(
+            &t,
+            &[0.0, 0.0, 1.0, 2.0, 3.0],
+            &DerivativeMethod::smoothing_spline(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            message.contains("time spacing") && message.contains("samples 0..=2"),
+            "{message}"
+        );
+    }
+
+    /// λ = 0: the natural cubic interpolant. It goes through every sample,
+    /// and on clean smooth data its derivative is accurate away from the
+    /// ends (where the natural end condition f'' = 0 costs O(h·|f''|)).
+    #[test]
+    fn smoothing_spline_with_zero_lambda_interpolates() {
+        let t = jittered(200);
+        let x: Vec<f64> = t.iter().map(|t| t.sin() + 0.5 * (-t).exp()).collect();
+        let fit = fit_smoothing_spline(&t, &x, Some(0.0)).unwrap();
+        for (f, x) in fit.values.iter().zip(&x) {
+            assert!((f - x).abs() < 1e-12, "{f} vs {x}");
+        }
+        let exact: Vec<f64> = t.iter().map(|t| t.cos() - 0.5 * (-t).exp()).collect();
+        let error = |range: std::ops::Range<usize>| {
+            range
+                .map(|i| (fit.derivatives[i] - exact[i]).abs())
+                .fold(0.0, f64::max)
+        };
+        // h ≈ 0.1: a cubic interpolant's derivative error is O(h³) inside.
+        let interior = error(10..190);
+        let overall = error(0..200);
+        println!("λ = 0: max derivative error {interior:.1e} inside, {overall:.1e} overall");
+        assert!(interior < 1e-4, "interior {interior}");
+        assert!(overall < 2e-2, "overall {overall}");
+    }
+
+    /// λ → ∞: the least-squares line, whose slope is the derivative
+    /// everywhere, whatever the data.
+    #[test]
+    fn smoothing_spline_with_huge_lambda_is_the_least_squares_line() {
+        let t = jittered(60);
+        let x: Vec<f64> = t
+            .iter()
+            .map(|t| 0.7 * t + (3.0 * t).sin() + 0.2 * t * t)
+            .collect();
+        let n = t.len() as f64;
+        let (tm, xm) = (t.iter().sum::<f64>() / n, x.iter().sum::<f64>() / n);
+        let slope = t
+            .iter()
+            .zip(&x)
+            .map(|(t, x)| (t - tm) * (x - xm))
+            .sum::<f64>()
+            / t.iter().map(|t| (t - tm).powi(2)).sum::<f64>();
+        for lambda in [1e12, 1e100, f64::MAX] {
+            let fit = fit_smoothing_spline(&t, &x, Some(lambda)).unwrap();
+            for d in &fit.derivatives {
+                assert!(
+                    (d - slope).abs() < 1e-6 * slope.abs(),
+                    "λ = {lambda}: {d} vs {slope}"
+                );
+            }
+            for (f, t) in fit.values.iter().zip(&t) {
+                let line = xm + slope * (t - tm);
+                assert!((f - line).abs() < 1e-6, "λ = {lambda}: {f} vs {line}");
+            }
+            assert!((fit.degrees_of_freedom - 2.0).abs() < 1e-6);
+        }
+    }
+
+    /// O(N) per λ: a million samples with a given λ, and GCV's search over
+    /// 10⁵ samples, run in well under a second each (a dense O(N²) or
+    /// O(N³) smoother could not), and stay accurate.
+    #[test]
+    fn smoothing_spline_handles_long_series() {
+        for (n, lambda) in [(1_000_000, Some(1e-12)), (100_000, None)] {
+            let t: Vec<f64> = (0..n)
+                .map(|k| 1e-4 * (k as f64 + 0.3 * (1.7 * k as f64).sin()))
+                .collect();
+            let x: Vec<f64> = t.iter().map(|t| t.sin()).collect();
+            let fit = fit_smoothing_spline(&t, &x, lambda).unwrap();
+            let worst = fit
+                .derivatives
+                .iter()
+                .zip(&t)
+                .skip(100)
+                .take(n - 200)
+                .map(|(d, t)| (d - t.cos()).abs())
+                .fold(0.0, f64::max);
+            println!(
+                "{n} samples, λ {lambda:?}: max interior derivative error {worst:.1e}, {:.1} degrees of freedom",
+                fit.degrees_of_freedom
+            );
+            assert!(worst < 1e-5, "{n} samples: {worst}");
+        }
+    }
+
+    #[test]
+    fn smoothing_spline_rejects_bad_input_by_name() {
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let x = [0.0, 1.0, 0.0, 1.0, 0.0];
+        let message = |t: &[f64], x: &[f64], lambda| {
+            fit_smoothing_spline(t, x, lambda).unwrap_err().to_string()
+        };
+        let m = message(&t, &x[..4], None);
+        assert!(
+            m.contains("values to fit") && m.contains('5') && m.contains('4'),
+            "{m}"
+        );
+        let m = message(&t, &[0.0, 1.0, f64::NAN, 1.0, 0.0], None);
+        assert!(
+            m.contains("values to fit") && m.contains("NaN") && m.contains('2'),
+            "{m}"
+        );
+        let m = message(&[0.0, 1.0, 1.0, 2.0, 3.0], &x, None);
+        assert!(
+            m.contains("strictly increase") && m.contains("entry 2"),
+            "{m}"
+        );
+        let m = message(&[0.0, 1.0, f64::INFINITY, 2.0, 3.0], &x, None);
+        assert!(m.contains("times") && m.contains("inf"), "{m}");
+        let m = message(&t[..3], &x[..3], Some(1.0));
+        assert!(
+            m.contains("at least 4 samples") && m.contains("has 3"),
+            "{m}"
+        );
+        let m = message(&t, &x, Some(-0.5));
+        assert!(
+            m.contains("smoothing-spline λ") && m.contains("-0.5"),
+            "{m}"
+        );
+        let m = message(&t, &x, Some(f64::NAN));
+        assert!(m.contains("smoothing-spline λ") && m.contains("NaN"), "{m}");
+        let m = message(&[-1e308, 0.0, 1.0, 1e308], &x[..4], None);
+        assert!(m.contains("span overflows"), "{m}");
+        // Values at the edge of the floating-point range: fitted, or refused
+        // by name, never NaN or a panic.
+        let huge = [1e308, -1e308, 1.5e308, -1.7e308, 1e308];
+        match fit_smoothing_spline(&t, &huge, None) {
+            Ok(fit) => assert!(fit.derivatives.iter().all(|d| d.is_finite())),
+            Err(err) => assert!(err.to_string().contains("not representable"), "{err}"),
+        }
+        let m = message(&[0.0, 1e-300, 2e-300, 3e-300], &huge[..4], Some(0.0));
+        assert!(m.contains("not representable"), "{m}");
+        // Times spanning 5e-300 (span³ underflows) or 5e200 (it overflows):
+        // λ = 0 still interpolates, and GCV still chooses.
+        for scale in [1e-300, 1e200] {
+            let t: Vec<f64> = (0..6).map(|k| scale * f64::from(k)).collect();
+            let x = [1.0, 2.0, 4.0, 3.0, 5.0, 4.5];
+            let fit = fit_smoothing_spline(&t, &x, Some(0.0)).unwrap();
+            assert!(
+                fit.values
+                    .iter()
+                    .zip(&x)
+                    .all(|(f, x)| (f - x).abs() < 1e-12),
+                "{fit:?}"
+            );
+            assert!(fit.derivatives.iter().all(|d| d.is_finite()), "{fit:?}");
+            let chosen = fit_smoothing_spline(&t, &x, None).unwrap();
+            assert!(
+                chosen.derivatives.iter().all(|d| d.is_finite()),
+                "{chosen:?}"
+            );
         }
     }
 }
