@@ -313,3 +313,109 @@ fn step_penalty(regression: &Regression, theta: &[f64]) -> Regression {
         target,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::equations::sealed::Sealed;
+    use crate::data::{Trajectory, WeakDataset, WeakForm};
+    use crate::test_system::{reference_data, Quadratic2d};
+
+    /// K(θ) of Quadratic2d's constant metrics, row-major.
+    fn metric_matrix(theta: &[f64]) -> [f64; 4] {
+        // Upper-triangle pairs (0,0), (0,1), (1,1), six monomials each.
+        [theta[0], theta[6], theta[6], theta[12]]
+    }
+
+    /// ∇(d · φ)(x) for Quadratic2d's entropy monomials (q, p, q², qp, p²).
+    fn entropy_gradient(d: &[f64], x: &[f64]) -> [f64; 2] {
+        let (q, p) = (x[0], x[1]);
+        [
+            d[0] + 2.0 * d[2] * q + d[3] * p,
+            d[1] + d[3] * q + 2.0 * d[4] * p,
+        ]
+    }
+
+    /// The correction's premise, row by row: at a trial point (θ₁, ψ + d)
+    /// the joint step's linearised residual minus the true one (computed
+    /// by `model_residuals` in its own row order) is the dropped bilinear
+    /// term (K(θ₁) − K(θ)) J d, summed with the equation's weights; and the
+    /// shifted targets make the linearised residual there the true one.
+    fn check_offset<D: IdentificationData>(data: &D) {
+        let entropy: Vec<f64> = Quadratic2d::REFERENCE_ENTROPY.unwrap().to_vec();
+        let mut metric = vec![0.0; 18];
+        (metric[0], metric[6], metric[12]) = (0.9, 0.1, 1.2);
+        let d = [0.05, -0.03, 0.02, -0.04, 0.01];
+        let trial_entropy: Vec<f64> = entropy.iter().zip(d).map(|(a, b)| a + b).collect();
+        let mut trial_metric = metric.clone();
+        (trial_metric[0], trial_metric[6], trial_metric[12]) = (0.7, -0.05, 1.4);
+        let trial = Model::<Quadratic2d>::new(trial_entropy.clone(), trial_metric.clone()).unwrap();
+
+        let mut regression = metric_regression::<Quadratic2d>(data, &entropy)
+            .unwrap()
+            .with_columns_of(&entropy_regression::<Quadratic2d>(data, &metric).unwrap());
+        let truth = model_residuals(&trial, data).unwrap();
+        let z: Vec<f64> = trial_metric.iter().copied().chain(d).collect();
+        let linearised = |regression: &Regression, r: usize| {
+            let row = &regression.rows[r * regression.width..(r + 1) * regression.width];
+            regression.target[r] - row.iter().zip(&z).map(|(a, b)| a * b).sum::<f64>()
+        };
+        let (k0, k1) = (metric_matrix(&metric), metric_matrix(&trial_metric));
+        let equations = data.equations();
+        assert_eq!(truth.len(), regression.target.len());
+        for e in 0..equations.len() {
+            let mut bilinear = [0.0; 2];
+            for (j, w) in equations.terms_of(e) {
+                let g = entropy_gradient(&d, equations.state(j));
+                for (i, b) in bilinear.iter_mut().enumerate() {
+                    *b += w
+                        * ((k1[2 * i] - k0[2 * i]) * g[0] + (k1[2 * i + 1] - k0[2 * i + 1]) * g[1]);
+                }
+            }
+            for (i, b) in bilinear.iter().enumerate() {
+                let r = 2 * e + i;
+                let found = linearised(&regression, r) - truth[r];
+                assert!(
+                    (found - b).abs() <= 1e-12 * (1.0 + b.abs()),
+                    "row {r}: {found} vs {b}"
+                );
+            }
+        }
+
+        let offset = Offset {
+            true_residuals: truth.clone(),
+            metric: &trial_metric,
+            entropy: &trial_entropy,
+        };
+        offset.apply(&mut regression, &[0, 1, 2, 3, 4], &entropy);
+        for (r, t) in truth.iter().enumerate() {
+            let found = linearised(&regression, r);
+            assert!(
+                (found - t).abs() <= 1e-12 * (1.0 + t.abs()),
+                "row {r}: {found} vs {t}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_correction_is_the_dropped_bilinear_term_on_derivative_data() {
+        check_offset(&reference_data(40, 5));
+    }
+
+    #[test]
+    fn the_correction_is_the_dropped_bilinear_term_on_weak_form_data() {
+        let trajectories: Vec<Trajectory> = (0..3)
+            .map(|k| {
+                let t: Vec<f64> = (0..40).map(|i| 0.05 * i as f64).collect();
+                let x = t
+                    .iter()
+                    .flat_map(|t| [(t + k as f64).cos(), -(t + 0.5 * k as f64).sin()])
+                    .collect();
+                Trajectory::new(vec!["q".into(), "p".into()], t, x, None).unwrap()
+            })
+            .collect();
+        let weak = WeakDataset::from_trajectories(&trajectories, &WeakForm::default()).unwrap();
+        assert!(weak.equations().terms.is_some());
+        check_offset(&weak);
+    }
+}
