@@ -1,24 +1,24 @@
 //! Bilevel identification: the paper's Algorithm 1 (full batch) and
-//! Algorithm 2 (a fresh random minibatch every iteration).
+//! Algorithm 2 (a fresh random minibatch every iteration). The entry points
+//! and the result are here; the start, the warm-up, the loop and one
+//! iteration's steps are in their own modules.
 
 use std::ops::ControlFlow;
 use std::path::Path;
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-
 use super::checkpoint;
-use super::config::{IdentifyConfig, IterationScheme, Validation};
-use super::cost::{data_scale, model_cost, Cost};
-use super::history::{History, IterationRecord, StepOutcome, StopReason};
-use super::iteration::{iterate_on, metric_is_fitted};
+use super::config::IdentifyConfig;
+use super::cost::model_cost;
+use super::history::{History, IterationRecord, StopReason};
+use super::iterate::{iterate, Split};
 use super::start::{initial_coefficients, start_sample};
 use super::state::RunState;
+use super::steps::iterate_on;
 use super::warm_up::{warm_up, warms_up};
 use super::warnings::{data_warnings, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -52,9 +52,9 @@ pub struct Identification<S: MetriplecticSystem> {
 ///
 /// # Iteration schemes
 ///
-/// [`IterationScheme::Alternating`] ([`IdentifyConfig::paper`]'s) is the
+/// [`IterationScheme::Alternating`](crate::IterationScheme::Alternating) ([`IdentifyConfig::paper`]'s) is the
 /// paper's algorithm: metric search, then entropy search.
-/// [`IterationScheme::AlternatingThenJoint`] (the default) adds, on the
+/// [`IterationScheme::AlternatingThenJoint`](crate::IterationScheme::AlternatingThenJoint) (the default) adds, on the
 /// same batch, a joint linearised step in both blocks inside an adaptive
 /// trust region ([`joint_step`](super::joint_step)), accepted under the
 /// same rule. On the nonsmooth L1 cost the alternation alone can crawl (each block
@@ -80,7 +80,7 @@ pub struct Identification<S: MetriplecticSystem> {
 ///   *both* solves failed (not merely failed to improve): if some step had been
 ///   accepted before, the best model so far is returned with
 ///   [`StopReason::SolverFailures`]; if none ever was, no progress was possible
-///   and the result is [`Error::IdentificationFailed`].
+///   and the result is [`Error::IdentificationFailed`](crate::Error::IdentificationFailed).
 ///
 /// # Checkpoints
 ///
@@ -173,26 +173,6 @@ where
     run(data, config, &split, state, observer)
 }
 
-impl<S: MetriplecticSystem> RunState<S> {
-    /// A run about to take its first iteration from `model`.
-    pub(super) fn start(model: Model<S>, config: &IdentifyConfig) -> Self {
-        Self {
-            model,
-            history: History::default(),
-            rng: ChaCha8Rng::seed_from_u64(config.seed),
-            failed_in_a_row: 0,
-            ever_accepted: false,
-            radius: match &config.scheme {
-                IterationScheme::AlternatingThenJoint(trust) => trust.initial_radius,
-                IterationScheme::Alternating => 0.0,
-            },
-            stopped: None,
-            best: None,
-            since_improvement: 0,
-        }
-    }
-}
-
 /// Continues the run saved in the checkpoint at `path` (written by a run
 /// with [`IdentifyConfig::checkpoint`] set) on the same `data` with the same
 /// `config`, as if it had never stopped: with the same seed, the resumed
@@ -201,7 +181,7 @@ impl<S: MetriplecticSystem> RunState<S> {
 /// `config` may raise [`IdentifyConfig::max_iterations`] (to extend a run)
 /// and change [`IdentifyConfig::checkpoint`]; anything else that differs
 /// from the checkpointed run, or other data, is
-/// [`Error::CheckpointMismatch`] naming what differs. A checkpoint of a run
+/// [`Error::CheckpointMismatch`](crate::Error::CheckpointMismatch) naming what differs. A checkpoint of a run
 /// that had converged or given up on solver failures is returned as is.
 pub fn identify_resume<S: MetriplecticSystem>(
     path: impl AsRef<Path>,
@@ -242,46 +222,6 @@ where
     }
 }
 
-/// The samples batches are drawn from and those that score the model.
-pub(super) struct Split<D> {
-    pub(super) pool: D,
-    pub(super) validation: Option<D>,
-}
-
-impl<D: IdentificationData> Split<D> {
-    pub(super) fn new(data: &D, config: &IdentifyConfig) -> Result<Self> {
-        let count = data.equation_count();
-        let held_out = config.held_out(count);
-        if config.batch_size.is_none() {
-            return Ok(Self {
-                pool: data.clone(),
-                validation: None,
-            });
-        }
-        match config.validation {
-            Validation::None => Ok(Self {
-                pool: data.clone(),
-                validation: None,
-            }),
-            Validation::AllData => Ok(Self {
-                pool: data.clone(),
-                validation: Some(data.clone()),
-            }),
-            _ => {
-                // A stream of its own, so that the batches do not depend on it.
-                let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x0ba1_1da7_e000_0000);
-                let mut order = rand::seq::index::sample(&mut rng, count, count).into_vec();
-                let validation = order.split_off(count - held_out);
-                order.sort_unstable();
-                Ok(Self {
-                    pool: data.select(&order)?,
-                    validation: Some(data.select(&validation)?),
-                })
-            }
-        }
-    }
-}
-
 /// The iterations of [`identify_with_observer`] from `state` on, and the
 /// result.
 fn run<S, D, F>(
@@ -298,149 +238,6 @@ where
 {
     let state = iterate(data, config, split, state, &mut observer, false)?;
     finish(data, config, split, state)
-}
-
-/// Iterations on `split` from `state` until a stopping rule holds; their
-/// records are marked `warm_up` as asked.
-pub(super) fn iterate<S, D, F>(
-    data: &D,
-    config: &IdentifyConfig,
-    split: &Split<D>,
-    mut state: RunState<S>,
-    observer: &mut F,
-    warm_up: bool,
-) -> Result<RunState<S>>
-where
-    S: MetriplecticSystem,
-    D: IdentificationData,
-    F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
-{
-    let first = state.history.iterations.len() + 1;
-    state.stopped = None;
-
-    for iteration in first..=config.max_iterations {
-        let batch = match config.batch_size {
-            None => None,
-            Some(q) => {
-                let indices =
-                    rand::seq::index::sample(&mut state.rng, split.pool.equation_count(), q)
-                        .into_vec();
-                Some(split.pool.select(&indices)?)
-            }
-        };
-        let batch = batch.as_ref().unwrap_or(&split.pool);
-        let fitted = metric_is_fitted(config, &state.history, warm_up);
-        let (cost_before, metric, entropy, joint) = iterate_on(batch, config, &mut state, fitted)?;
-
-        let accepted = [
-            Some(&metric),
-            Some(&entropy),
-            joint.as_ref().map(|j| &j.step),
-        ]
-        .iter()
-        .flatten()
-        .any(|s| s.outcome == StepOutcome::Accepted);
-        state.ever_accepted |= accepted;
-        let both_failed = [&metric, &entropy]
-            .iter()
-            .all(|s| s.outcome == StepOutcome::RejectedFailed);
-        state.failed_in_a_row = if both_failed {
-            state.failed_in_a_row + 1
-        } else {
-            0
-        };
-
-        let mut record = IterationRecord {
-            iteration,
-            batch_size: batch.equation_count(),
-            cost_before,
-            metric,
-            entropy,
-            joint,
-            validation_cost: None,
-            polish: false,
-            warm_up,
-        };
-        let cost_now = record.cost_after();
-        // The score: on the validation samples, or the batch when it is all the data.
-        let score = match (&split.validation, config.batch_size) {
-            (Some(validation), _) => Some(model_cost(&state.model, validation)?),
-            (None, None) => Some(cost_now),
-            (None, Some(_)) => None,
-        };
-        record.validation_cost = split.validation.as_ref().and(score);
-        // Converged when the model fits the scoring samples (or, without
-        // them, the batch) to the tolerance: a model fitted to one small
-        // batch has not converged.
-        let converged = match (&split.validation, score) {
-            (Some(validation), Some(score)) => {
-                score.per_component <= config.tolerance * data_scale(validation)
-            }
-            _ => cost_now.per_component <= config.tolerance * data_scale(batch),
-        };
-        if let Some(score) = score {
-            track_best(&mut state, score, config.stagnation.as_ref());
-        }
-        let flow = observer(&record, &state.model);
-        state.history.iterations.push(record);
-
-        let stagnated = config
-            .stagnation
-            .is_some_and(|s| score.is_some() && state.since_improvement >= s.window);
-        if state.failed_in_a_row >= config.max_failed_iterations {
-            if !state.ever_accepted {
-                let last = &state.history.iterations[state.history.iterations.len() - 1];
-                return Err(Error::IdentificationFailed {
-                    iterations: iteration,
-                    reason: format!(
-                        "no subproblem was ever solved: last metric search {}, last entropy search {}",
-                        last.metric.report.status, last.entropy.report.status
-                    ),
-                });
-            }
-            state.stopped = Some(StopReason::SolverFailures);
-        } else if converged {
-            state.stopped = Some(StopReason::Converged);
-        } else if stagnated {
-            state.stopped = Some(StopReason::Stagnated);
-        } else if flow.is_break() {
-            state.stopped = Some(StopReason::Interrupted);
-        } else if iteration == config.max_iterations {
-            state.stopped = Some(StopReason::MaxIterations);
-        }
-        if let Some(checkpoint) = &config.checkpoint {
-            if state.stopped.is_some() || iteration % checkpoint.every == 0 {
-                checkpoint::save(&checkpoint.path, data, config, &state)?;
-            }
-        }
-        if state.stopped.is_some() {
-            break;
-        }
-    }
-    // A resumed run whose cap was already reached runs no iteration.
-    state.stopped = Some(state.stopped.unwrap_or(StopReason::MaxIterations));
-    Ok(state)
-}
-
-/// Keeps the best-scoring model and counts iterations without improvement.
-fn track_best<S: MetriplecticSystem>(
-    state: &mut RunState<S>,
-    score: Cost,
-    stagnation: Option<&super::config::Stagnation>,
-) {
-    let delta = stagnation.map_or(0.0, |s| s.relative_improvement);
-    match &state.best {
-        Some((_, best)) if score.sum > best.sum * (1.0 - delta) => {
-            state.since_improvement += 1;
-            if score.sum < best.sum {
-                state.best = Some((state.model.clone(), score));
-            }
-        }
-        _ => {
-            state.best = Some((state.model.clone(), score));
-            state.since_improvement = 0;
-        }
-    }
 }
 
 /// The result of a stopped run: a scoring run returns its best model,
@@ -499,9 +296,14 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
 mod tests {
     use super::*;
     use crate::entropy_search;
+    use crate::identify::config::{IterationScheme, Validation};
+    use crate::identify::history::StepOutcome;
     use crate::identify::start::fitted_start;
     use crate::model::identity_metric;
     use crate::test_system::{reference_data, Quadratic2d};
+    use crate::Error;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
 
     /// The paper's alternation on the full batch with no stopping rule but
     /// the tolerance: the defaults these tests were written for.

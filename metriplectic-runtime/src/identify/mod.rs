@@ -1,18 +1,20 @@
-//! The identification layer: the driver (the paper's Algorithms 1 and 2),
-//! where a run starts (`start`), its warm-up on a subsample (`warm_up`),
-//! one iteration's steps and their acceptance (`iteration`), the
-//! configuration, history, checkpoints and cost, and the three convex
-//! searches in [`search`].
+//! The identification layer: the driver (the paper's Algorithms 1 and 2:
+//! the public entry points and the result), where a run starts (`start`),
+//! its warm-up on a subsample (`warm_up`), the iteration loop and its
+//! stopping rules (`iterate`), one iteration's steps and their acceptance
+//! (`steps`), the configuration, history, checkpoints and cost, and the
+//! three convex searches in [`search`].
 
 mod checkpoint;
 mod config;
 mod cost;
 mod driver;
 mod history;
-mod iteration;
+mod iterate;
 pub(crate) mod search;
 mod start;
 mod state;
+mod steps;
 mod support;
 mod warm_up;
 mod warnings;

@@ -1,8 +1,10 @@
 //! Everything a run carries from one iteration to the next: what a
 //! checkpoint saves and a resumed run starts from.
 
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use super::config::{IdentifyConfig, IterationScheme};
 use super::cost::Cost;
 use super::history::{History, StopReason};
 use crate::model::Model;
@@ -29,4 +31,24 @@ pub(crate) struct RunState<S: MetriplecticSystem> {
     pub(crate) radius: f64,
     /// Why the run stopped, if it did.
     pub(crate) stopped: Option<StopReason>,
+}
+
+impl<S: MetriplecticSystem> RunState<S> {
+    /// A run about to take its first iteration from `model`.
+    pub(super) fn start(model: Model<S>, config: &IdentifyConfig) -> Self {
+        Self {
+            model,
+            history: History::default(),
+            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            failed_in_a_row: 0,
+            ever_accepted: false,
+            radius: match &config.scheme {
+                IterationScheme::AlternatingThenJoint(trust) => trust.initial_radius,
+                IterationScheme::Alternating => 0.0,
+            },
+            stopped: None,
+            best: None,
+            since_improvement: 0,
+        }
+    }
 }

@@ -5,8 +5,8 @@
 use std::ops::ControlFlow;
 
 use super::config::{IdentifyConfig, Stagnation};
-use super::driver::{iterate, Split};
 use super::history::{IterationRecord, StopReason};
+use super::iterate::{iterate, Split};
 use super::state::RunState;
 use crate::data::IdentificationData;
 use crate::error::{Error, Result};
