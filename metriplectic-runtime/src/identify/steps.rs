@@ -1,6 +1,7 @@
 //! One iteration on a batch: the metric search, the entropy search and the
 //! joint step, each kept only when it lowers the batch cost (the paper's
-//! Theorem 1), and the metric refit of a joint step that gained little.
+//! Theorem 1); a joint step that gained little is corrected to second order
+//! and its metric refitted.
 
 use super::config::{IdentifyConfig, IterationScheme, TrustRegion};
 use super::cost::{model_cost, Cost};
