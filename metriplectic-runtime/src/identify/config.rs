@@ -351,6 +351,13 @@ pub struct TrustRegion {
     pub good_ratio: f64,
     /// ρ below which a step counts as poor.
     pub poor_ratio: f64,
+    /// Whether a step that gained less than `good_ratio` of its prediction
+    /// is solved again with the second-order correction (the bilinear term
+    /// the linearisation dropped, taken at the first candidate) and
+    /// replaced if that fits the batch better (default `true`). It costs
+    /// a solve each time it is tried; near an exact fit in a curved valley
+    /// it takes many fewer iterations (`docs/method.md` §3).
+    pub second_order: bool,
 }
 
 impl Default for TrustRegion {
@@ -363,6 +370,7 @@ impl Default for TrustRegion {
             shrink: 0.25,
             good_ratio: 0.75,
             poor_ratio: 0.25,
+            second_order: true,
         }
     }
 }

@@ -111,7 +111,8 @@ fn gained_little(step: &JointStep, current: Cost, trust: &TrustRegion) -> bool {
 /// replaces the first if its solve is usable and it fits the batch better;
 /// the first one's prediction is kept (the trust region is judged by the
 /// model it was given), the second solve's times are added to the
-/// report. Returns whether it replaced it.
+/// report. Returns whether it replaced it; never tried when
+/// [`TrustRegion::second_order`] is off.
 ///
 /// Near an exact fit the residuals that vanish at the solution lie on a
 /// curved set; a linearised step leaves it by a second-order amount that
@@ -130,7 +131,7 @@ fn correct_step<S: MetriplecticSystem>(
     trust: &TrustRegion,
     options: &SearchOptions,
 ) -> Result<bool> {
-    if !gained_little(step, current, trust) {
+    if !(trust.second_order && gained_little(step, current, trust)) {
         return Ok(false);
     }
     let Some(corrected) = corrected_joint_step::<S>(batch, model, radius, options, step)? else {
