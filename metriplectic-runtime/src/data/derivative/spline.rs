@@ -478,6 +478,14 @@ mod tests {
     use super::*;
     use nalgebra::DMatrix;
 
+    /// A smooth signal at times `t` with a small fast ripple.
+    fn wavy(t: &[f64]) -> Vec<f64> {
+        t.iter()
+            .enumerate()
+            .map(|(k, t)| (1.3 * t).sin() + 0.05 * (7.1 * k as f64).cos())
+            .collect()
+    }
+
     fn jittered(n: usize) -> Vec<f64> {
         (0..n)
             .map(|k| 0.1 * (k as f64 + 0.35 * (2.3 * k as f64).sin()))
@@ -523,11 +531,7 @@ mod tests {
     #[test]
     fn natural_spline_matches_the_dense_formula_and_its_trace() {
         let t = jittered(30);
-        let x: Vec<f64> = t
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (1.3 * t).sin() + 0.05 * (7.1 * k as f64).cos())
-            .collect();
+        let x = wavy(&t);
         for lambda in [0.0, 1e-4, 1e-2, 1.0, 1e3] {
             let fit = fit(&t, &x, Some(lambda)).unwrap();
             let dense = dense_spline(&t, &x, lambda);
@@ -572,11 +576,7 @@ mod tests {
     #[test]
     fn smoothing_spline_reports_its_trace_and_score() {
         let t = jittered(40);
-        let x: Vec<f64> = t
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (1.3 * t).sin() + 0.05 * (7.1 * k as f64).cos())
-            .collect();
+        let x = wavy(&t);
         let n = t.len() as f64;
         for lambda in [0.0, 1e-4, 1e-2, 1.0, 1e3] {
             let fit = fit_smoothing_spline(&t, &x, Some(lambda)).unwrap();
