@@ -97,7 +97,8 @@ pub fn joint_step<S: MetriplecticSystem>(
 
 /// The joint step from `model` again, with the second-order correction
 /// taken from its first candidate `trial`: `None` if `trial` is no valid
-/// model (then there is nothing to correct with).
+/// model or its residuals on `data` are not finite (then there is nothing
+/// to correct with).
 ///
 /// The linearised residual r̃ᵢ(θ′, d) misses the bilinear term
 /// Bᵢ = (K(xᵢ; θ′) − K(xᵢ; θ)) Jᵢᵀ d. At the trial point (θ′₁, d₁) it is
@@ -120,8 +121,13 @@ pub(crate) fn corrected_joint_step<S: MetriplecticSystem>(
     let Ok(candidate) = Model::<S>::new(trial.entropy.clone(), trial.metric.clone()) else {
         return Ok(None);
     };
+    let true_residuals = model_residuals(&candidate, data)?;
+    // A candidate whose field overflows on the data gives no usable shift.
+    if !true_residuals.iter().all(|r| r.is_finite()) {
+        return Ok(None);
+    }
     let offset = Offset {
-        true_residuals: model_residuals(&candidate, data)?,
+        true_residuals,
         metric: &trial.metric,
         entropy: &trial.entropy,
     };
@@ -155,7 +161,11 @@ impl Offset<'_> {
             .zip(&self.true_residuals)
         {
             let linearised = *target - row.iter().zip(&step).map(|(a, z)| a * z).sum::<f64>();
-            *target -= linearised - truth;
+            let shifted = *target - (linearised - truth);
+            // A row whose shift overflows keeps its first-order target.
+            if shifted.is_finite() {
+                *target = shifted;
+            }
         }
     }
 }
