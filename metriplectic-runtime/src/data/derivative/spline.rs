@@ -478,6 +478,31 @@ mod tests {
     use super::*;
     use nalgebra::DMatrix;
 
+    /// The fit's cross-validation score is N·RSS/(N − γ·trace)² of the
+    /// fitted values `fitted` of `x`, or `None` where that denominator is
+    /// not positive.
+    fn assert_gcv_score(
+        fit: &SmoothingSplineFit,
+        x: &[f64],
+        fitted: &[f64],
+        trace: f64,
+        lambda: f64,
+    ) {
+        let n = x.len() as f64;
+        let denominator = n - GCV_PENALTY * trace;
+        if denominator > 0.0 {
+            let rss: f64 = x.iter().zip(fitted).map(|(a, b)| (a - b).powi(2)).sum();
+            let score = n * rss / denominator.powi(2);
+            let found = fit.gcv.unwrap();
+            assert!(
+                (found / score - 1.0).abs() < 1e-6,
+                "λ = {lambda}: {found} vs {score}"
+            );
+        } else {
+            assert_eq!(fit.gcv, None, "λ = {lambda}");
+        }
+    }
+
     /// A smooth signal at times `t` with a small fast ripple.
     fn wavy(t: &[f64]) -> Vec<f64> {
         t.iter()
@@ -554,19 +579,7 @@ mod tests {
                 "λ = {lambda}: {} vs {trace}",
                 fit.degrees_of_freedom
             );
-            let n = t.len() as f64;
-            let denominator = n - GCV_PENALTY * trace;
-            if denominator > 0.0 {
-                let rss: f64 = x.iter().zip(&dense).map(|(a, b)| (a - b).powi(2)).sum();
-                let score = n * rss / denominator.powi(2);
-                let found = fit.gcv.unwrap();
-                assert!(
-                    (found / score - 1.0).abs() < 1e-6,
-                    "λ = {lambda}: {found} vs {score}"
-                );
-            } else {
-                assert_eq!(fit.gcv, None, "λ = {lambda}");
-            }
+            assert_gcv_score(&fit, &x, &dense, trace, lambda);
         }
     }
 
@@ -592,22 +605,7 @@ mod tests {
                 "λ = {lambda}: {} vs {trace}",
                 fit.degrees_of_freedom
             );
-            let denominator = n - 1.4 * fit.degrees_of_freedom;
-            if denominator > 0.0 {
-                let rss: f64 = x
-                    .iter()
-                    .zip(&fit.values)
-                    .map(|(a, b)| (a - b).powi(2))
-                    .sum();
-                let score = n * rss / denominator.powi(2);
-                let found = fit.gcv.unwrap();
-                assert!(
-                    (found / score - 1.0).abs() < 1e-6,
-                    "λ = {lambda}: {found} vs {score}"
-                );
-            } else {
-                assert_eq!(fit.gcv, None, "λ = {lambda}");
-            }
+            assert_gcv_score(&fit, &x, &fit.values, fit.degrees_of_freedom, lambda);
             if lambda == 0.0 {
                 assert!((fit.degrees_of_freedom - n).abs() < 1e-9);
             }
