@@ -137,20 +137,10 @@ fn correct_step<S: MetriplecticSystem>(
     let Some(corrected) = corrected_joint_step::<S>(batch, model, radius, options, step)? else {
         return Ok(false);
     };
-    let own = step
-        .report
-        .cost
-        .filter(Cost::is_finite)
-        .map_or(f64::INFINITY, |c| c.sum);
-    let usable = corrected.report.status.is_usable()
-        && corrected.entropy.iter().all(|c| c.is_finite())
-        && corrected
-            .report
-            .cost
-            .is_some_and(|c| c.is_finite() && c.sum < own);
+    let better = improves(&corrected.report, &corrected.entropy, step);
     step.report.assembly_seconds += corrected.report.assembly_seconds;
     step.report.solver_seconds += corrected.report.solver_seconds;
-    if !usable {
+    if better.is_none() {
         return Ok(false);
     }
     let predicted = step.predicted;
@@ -165,6 +155,18 @@ fn correct_step<S: MetriplecticSystem>(
         ..corrected
     };
     Ok(true)
+}
+
+/// The cost of a replacement for `step` (its solve's `report` and the
+/// coefficients it found) if the solve is usable, the coefficients finite
+/// and the recomputed cost finite and lower than the step's own (any, if
+/// the step's candidate had no finite cost).
+fn improves(report: &SearchReport, coefficients: &[f64], step: &JointStep) -> Option<Cost> {
+    let own = step.report.cost.filter(Cost::is_finite).map(|c| c.sum);
+    let usable = report.status.is_usable() && coefficients.iter().all(|c| c.is_finite());
+    report
+        .cost
+        .filter(|c| usable && c.is_finite() && own.is_none_or(|own| c.sum < own))
 }
 
 /// Variable projection for a joint step that gained little: when its
@@ -194,18 +196,13 @@ fn refit_metric<S: MetriplecticSystem>(
     if !gained_little(step, current, trust) {
         return Ok(false);
     }
-    let own = step.report.cost.filter(Cost::is_finite).map(|c| c.sum);
     let refit = metric_search::<S>(batch, &step.entropy, options)?;
+    let better = improves(&refit.report, &refit.coefficients, step);
     step.report.assembly_seconds += refit.report.assembly_seconds;
     step.report.solver_seconds += refit.report.solver_seconds;
-    let usable =
-        refit.report.status.is_usable() && refit.coefficients.iter().all(|c| c.is_finite());
-    let Some(cost) = refit.report.cost.filter(|c| usable && c.is_finite()) else {
+    let Some(cost) = better else {
         return Ok(false);
     };
-    if own.is_some_and(|own| cost.sum >= own) {
-        return Ok(false);
-    }
     step.metric = refit.coefficients;
     step.certificate = refit.certificate;
     step.report.cost = Some(cost);
