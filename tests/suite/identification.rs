@@ -8,7 +8,9 @@ use metriplectic_runtime::{
     SearchOptions, StepOutcome, StopReason, TrustRegion,
 };
 use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
+use metriplectic_runtime::{Identification, SyntheticData};
 use std::ops::ControlFlow;
+use std::sync::OnceLock;
 
 fn assert_non_increasing(history: &History) {
     let mut previous = f64::INFINITY;
@@ -362,17 +364,28 @@ metriplectic! {
     }
 }
 
+/// The friction system's dataset, its default identification (run once for
+/// the tests that read it) and that run's held-out error.
+fn friction_run() -> &'static (SyntheticData, Identification<PositionFriction>, f64) {
+    static RUN: OnceLock<(SyntheticData, Identification<PositionFriction>, f64)> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let data = reference_trajectories::<PositionFriction>(1.5, 3);
+        let run = identify::<PositionFriction>(&data.train, &IdentifyConfig::default())
+            .expect("the identification runs");
+        let held_out = data.held_out.as_ref().expect("five held-out trajectories");
+        let error = relative_error(&run.model, held_out);
+        (data, run, error)
+    })
+}
+
 /// The joint step's metric refit (variable projection): on this dataset the
 /// run without it ended at the 100-iteration cap with held-out error 1.6e-6,
 /// its trust radius at 1e-3 and each step moving one entropy coefficient by
 /// 1e-4 (`docs/method.md` §3, "The metric refit"); with it the run converges.
 #[test]
 fn the_metric_refit_gets_a_state_dependent_metric_out_of_a_curved_valley() {
-    let data = reference_trajectories::<PositionFriction>(1.5, 3);
-    let held_out = data.held_out.as_ref().expect("five held-out trajectories");
-    let run = identify::<PositionFriction>(&data.train, &IdentifyConfig::default())
-        .expect("the identification runs");
-    let error = relative_error(&run.model, held_out);
+    let (_, run, error) = friction_run();
+    let error = *error;
     let refits = run
         .history
         .iterations
@@ -400,11 +413,8 @@ fn the_metric_refit_gets_a_state_dependent_metric_out_of_a_curved_valley() {
 /// converges in 30 at most, where without the correction it does not.
 #[test]
 fn the_second_order_correction_follows_a_curved_valley() {
-    let data = reference_trajectories::<PositionFriction>(1.5, 3);
-    let held_out = data.held_out.as_ref().expect("five held-out trajectories");
-    let run = identify::<PositionFriction>(&data.train, &IdentifyConfig::default())
-        .expect("the identification runs");
-    let error = relative_error(&run.model, held_out);
+    let (data, run, error) = friction_run();
+    let error = *error;
     let corrected = run
         .history
         .iterations
