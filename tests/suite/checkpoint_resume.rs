@@ -13,13 +13,7 @@ use metriplectic_runtime::{
 
 /// A fresh scratch directory for one test.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "metriplectic-checkpoint-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    scratch_dir("checkpoint", name)
 }
 
 /// The history with wall times zeroed: everything else must be reproducible.

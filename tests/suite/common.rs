@@ -1,5 +1,8 @@
 //! Helpers the capability modules share: the paper systems and their
-//! reference data (declared once in the root package), and comparisons.
+//! reference data (declared once in the root package), comparisons, and
+//! scratch paths.
+
+use std::path::{Path, PathBuf};
 
 pub use metriplectic::systems::{
     linear2d_data, perturbed_reference_entropy, rigid_body_data, Linear2d, RigidBody,
@@ -80,4 +83,26 @@ pub fn reference_trajectories<S: MetriplecticSystem>(half_width: f64, seed: u64)
         )
     };
     synthesize(&truth, &options).expect("a stable reference")
+}
+
+/// `target/tmp/<group>/<name>` with whatever an earlier run left there
+/// removed and its parent created. Scratch files live in the build's
+/// temporary directory, not the system's, so that they go with the build.
+pub fn scratch_path(group: &str, name: &str) -> PathBuf {
+    let path = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(group)
+        .join(name);
+    let _ = std::fs::remove_dir_all(&path);
+    let _ = std::fs::remove_file(&path);
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).unwrap();
+    }
+    path
+}
+
+/// A fresh, empty directory at [`scratch_path`]`(group, name)`.
+pub fn scratch_dir(group: &str, name: &str) -> PathBuf {
+    let dir = scratch_path(group, name);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }

@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use crate::common::{Linear2d, RigidBody};
+use crate::common::{scratch_path, Linear2d, RigidBody};
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::Trajectory;
 use metriplectic_runtime::{
@@ -33,11 +33,7 @@ fn csv_error(text: &str) -> (CsvError, String) {
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("metriplectic-data-io-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    let _ = std::fs::remove_file(&path);
-    path
+    scratch_path("data_io", name)
 }
 
 fn awkward_trajectory(id: &str, with_derivatives: bool) -> Trajectory {

@@ -62,8 +62,7 @@ fn determinism_child() {
 #[test]
 fn equal_inputs_give_equal_histories_across_blas_thread_counts() {
     let exe = std::env::current_exe().unwrap();
-    let dir = std::env::temp_dir().join(format!("metriplectic-determinism-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("determinism", "blas_threads");
     let mut outputs = Vec::new();
     for threads in ["1", "2"] {
         let out = dir.join(format!("threads-{threads}.txt"));

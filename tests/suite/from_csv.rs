@@ -16,15 +16,7 @@ use metriplectic_runtime::{
 
 /// A fresh path under the test target's temporary directory.
 fn scratch(name: &str) -> PathBuf {
-    let path = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("from_csv")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&path);
-    let _ = std::fs::remove_file(&path);
-    if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent).unwrap();
-    }
-    path
+    crate::common::scratch_path("from_csv", name)
 }
 
 /// `trajectories` measured trajectories of `S`'s reference model from

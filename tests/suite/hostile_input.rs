@@ -6,16 +6,6 @@ use crate::common::*;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{identify, model_cost, IdentifyConfig, StepOutcome};
 
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "metriplectic-hostile-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 #[test]
 fn minibatch_larger_than_the_data_is_an_error_naming_both_sizes() {
     let data = linear2d_data(12, 41);
@@ -226,7 +216,7 @@ fn truncated_nested_and_oversized_model_json_is_refused_without_panic_or_oom() {
     let err = Model::<Linear2d>::from_json(&padded).unwrap_err();
     assert!(matches!(err, Error::InvalidArgument { .. }), "{err}");
 
-    let dir = scratch("files");
+    let dir = scratch_dir("hostile_input", "files");
     // A 100 MB file (sparse: costs no disk) is refused before reading.
     let huge = dir.join("huge.json");
     std::fs::File::create(&huge)

@@ -6,7 +6,7 @@
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{synthesize, InitialStates, SampleTimes, SynthesisOptions};
 
-use crate::common::{identity_metric, linear2d_data, metric_pair_index, Linear2d};
+use crate::common::{identity_metric, linear2d_data, metric_pair_index, scratch_dir, Linear2d};
 
 /// θ of Linear2d with the constant metric `k` (row-major 2×2, symmetric).
 fn constant_metric(k: [f64; 4]) -> Vec<f64> {
@@ -82,8 +82,7 @@ fn a_state_dependent_metric_is_certified_or_refused_with_a_witness() {
 
 #[test]
 fn a_model_file_with_an_indefinite_metric_does_not_load() {
-    let dir = std::env::temp_dir().join(format!("metriplectic-psd-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("metric_positivity", "indefinite_model_file");
     let path = dir.join("model.json");
     let json = Model::<Linear2d>::reference().unwrap().to_json().unwrap();
     // The first metric coefficient (K₀₀'s constant term) edited from 1 to −5.

@@ -3,7 +3,7 @@
 //! model (wrong system, indefinite metric, absurd coefficients) while
 //! accepting what editors add (a byte-order mark).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::WriteMode;
@@ -11,10 +11,7 @@ use metriplectic_runtime::WriteMode;
 use crate::common::RigidBody;
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("model-files-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    crate::common::scratch_dir("model_files", name)
 }
 
 /// A model different from the reference, so that its file differs too.

@@ -10,9 +10,7 @@ use metriplectic::systems::{Linear2d, RigidBody};
 use metriplectic_runtime::prelude::*;
 
 fn output_dir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
+    crate::common::scratch_path("reproduction", name)
 }
 
 fn reduced_options(out: &Path, batch_size: usize, iterations: usize) -> Options {

@@ -12,9 +12,7 @@ use metriplectic::systems::Linear2d;
 use metriplectic_runtime::prelude::*;
 
 fn output_dir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
+    crate::common::scratch_path("reproduction_interrupt", name)
 }
 
 fn tiny_options(out: &Path) -> Options {

@@ -16,7 +16,7 @@ use metriplectic_runtime::{
 };
 use rand::Rng;
 
-use crate::common::{linear2d_data, rigid_body_data, Linear2d, RigidBody};
+use crate::common::{linear2d_data, rigid_body_data, scratch_path, Linear2d, RigidBody};
 
 fn gauge_options(trace: f64) -> IdentifiabilityOptions {
     IdentifiabilityOptions {
@@ -126,9 +126,7 @@ fn so3_from_zero_entropy_with_the_gauge_converges_to_the_identity() {
 #[test]
 fn so3_cold_start_with_the_gauge_converges_within_ten_iterations() {
     for seed in 1..=5 {
-        let out =
-            std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("so3_gauge_{seed}"));
-        let _ = std::fs::remove_dir_all(&out);
+        let out = scratch_path("what_the_data_determine", &format!("so3_gauge_{seed}"));
         let options = Options {
             seed,
             batch_size: 2000,
