@@ -8,7 +8,7 @@
 //! cargo run --release --example from_csv -- --help
 //! ```
 //!
-//! The pipeline is `metriplectic::from_csv` (src/from_csv.rs); the systems it
+//! The pipeline is `metriplectic::from_csv` (src/from_csv/); the systems it
 //! knows are declared in src/systems.rs.
 
 use std::process::ExitCode;

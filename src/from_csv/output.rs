@@ -1,0 +1,210 @@
+//! The output directory: checked before the run, written file by file
+//! without replacing what the user has unless asked, and the figures.
+
+use std::fs::{self, OpenOptions};
+use std::io::Write;
+use std::path::Path;
+
+use metriplectic_runtime::prelude::*;
+use metriplectic_runtime::{
+    phase_portrait_2d, trajectories_3d, trajectory_overlay, Identification, Labels, Simulation,
+};
+
+use super::validation::{smooth_simulation, trajectory_label, Validation};
+use super::{io_error, Context, FromCsvError};
+
+/// Refuses an output path that is a file, or a non-empty directory without
+/// `overwrite`. Creates nothing: the directory is made once the input has
+/// been read, so a bad CSV leaves nothing behind.
+pub(super) fn check_output_dir(out: &Path, overwrite: bool) -> Result<(), FromCsvError> {
+    match fs::metadata(out) {
+        Ok(meta) if !meta.is_dir() => Err(FromCsvError::OutputNotADirectory(out.to_owned())),
+        Ok(_) => {
+            let mut entries = fs::read_dir(out).map_err(io_error(out))?;
+            if entries.next().is_some() && !overwrite {
+                Err(FromCsvError::OutputNotEmpty(out.to_owned()))
+            } else {
+                Ok(())
+            }
+        }
+        Err(err) if err.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(err) => Err(io_error(out)(err)),
+    }
+}
+
+impl Context<'_> {
+    /// `validation_<k>.png` (or one per pair of state variables),
+    /// `validation_overlay.png` (the same trajectories over time),
+    /// `model_trajectories_3d.png` for 3-D systems, `loss.png` and
+    /// `free_energy.png`. A figure that cannot be drawn (degenerate data)
+    /// is a warning: the model and numbers are still worth having.
+    pub(super) fn figures<S: MetriplecticSystem>(
+        &self,
+        identification: &Identification<S>,
+        validation: &[Trajectory],
+        checked: &Validation,
+        files: &mut Vec<String>,
+        warnings: &mut Vec<String>,
+    ) -> Result<(), FromCsvError> {
+        let out = &self.options.out;
+        let mut attempt =
+            |name: String, draw: &dyn Fn(&Path) -> metriplectic_runtime::Result<()>| {
+                let path = out.join(&name);
+                if !self.options.overwrite && path.exists() {
+                    return Err(FromCsvError::OutputExists(path));
+                }
+                match draw(&path) {
+                    Ok(()) => files.push(name),
+                    Err(err) => warnings.push(format!("{name} not drawn: {err}")),
+                }
+                Ok(())
+            };
+        let names = S::STATE_NAMES;
+        let pairs: Vec<(usize, usize)> = (0..S::DIM)
+            .flat_map(|a| (a + 1..S::DIM).map(move |b| (a, b)))
+            .take(3)
+            .collect();
+        let shown = checked
+            .simulations
+            .iter()
+            .take(self.options.plot_trajectories);
+        // Measured against simulated states over time, for the overlay.
+        type Series = (Vec<f64>, Vec<Vec<f64>>);
+        let series = |trajectory: &Trajectory| -> Series {
+            (
+                trajectory.times().to_vec(),
+                trajectory
+                    .states()
+                    .chunks_exact(S::DIM)
+                    .map(<[f64]>::to_vec)
+                    .collect(),
+            )
+        };
+        let mut overlay_data: Vec<Series> = Vec::new();
+        let mut overlay_model: Vec<Series> = Vec::new();
+        for (number, (index, _)) in shown.enumerate() {
+            let measured = &validation[*index];
+            let Some(smooth) = smooth_simulation(&identification.model, measured) else {
+                continue;
+            };
+            overlay_data.push(series(measured));
+            overlay_model.push(series(&smooth.trajectory));
+            let model_points: Vec<&[f64]> =
+                smooth.trajectory.states().chunks_exact(S::DIM).collect();
+            let title = format!(
+                "Trajectory {}: model (blue) vs measured (black)",
+                trajectory_label(measured)
+            );
+            for &(a, b) in &pairs {
+                let name = if S::DIM == 2 {
+                    format!("validation_{}.png", number + 1)
+                } else {
+                    format!("validation_{}_{}_{}.png", number + 1, names[a], names[b])
+                };
+                let model_xy: Vec<[f64; 2]> = model_points.iter().map(|x| [x[a], x[b]]).collect();
+                let measured_xy: Vec<(f64, f64)> = measured
+                    .states()
+                    .chunks_exact(S::DIM)
+                    .map(|x| (x[a], x[b]))
+                    .collect();
+                attempt(name, &|path| {
+                    phase_portrait_2d(
+                        path,
+                        &[&model_xy],
+                        &measured_xy,
+                        &Labels {
+                            title: &title,
+                            x: names[a],
+                            y: names[b],
+                            reference: "measured states",
+                            ..Labels::default()
+                        },
+                    )
+                })?;
+            }
+        }
+        if !overlay_data.is_empty() {
+            attempt("validation_overlay.png".to_owned(), &|path| {
+                trajectory_overlay(
+                    path,
+                    &overlay_data,
+                    &overlay_model,
+                    names,
+                    &Labels {
+                        title: "Validation trajectories: measured (markers) and model (lines)",
+                        x: "t",
+                        ..Labels::default()
+                    },
+                )
+            })?;
+        }
+        if S::DIM == 3 && !checked.simulations.is_empty() {
+            let trajectories: Vec<Vec<&[f64]>> = checked
+                .simulations
+                .iter()
+                .map(|(_, s)| s.trajectory.states().chunks_exact(3).collect())
+                .collect();
+            attempt("model_trajectories_3d.png".to_owned(), &|path| {
+                trajectories_3d(
+                    path,
+                    &trajectories,
+                    None,
+                    &Labels {
+                        title: "Model from the validation trajectories' first states",
+                        x: names[0],
+                        y: names[1],
+                        z: names[2],
+                        ..Labels::default()
+                    },
+                )
+            })?;
+        }
+        let history = &identification.history;
+        if !history.iterations.is_empty() {
+            attempt("loss.png".to_owned(), &|path| {
+                crate::figures::loss_figure(
+                    path,
+                    history,
+                    "Training loss (mean |residual| per component)",
+                )
+            })?;
+        }
+        if !checked.simulations.is_empty() {
+            let simulations: Vec<&Simulation> =
+                checked.simulations.iter().map(|(_, s)| s).collect();
+            attempt("free_energy.png".to_owned(), &|path| {
+                crate::figures::free_energy_figure(
+                    path,
+                    &simulations,
+                    "Free energy along the model's validation trajectories",
+                )
+            })?;
+        }
+        Ok(())
+    }
+}
+
+/// Writes `out/name`, refusing to replace a file unless `overwrite`.
+pub(super) fn write_output(
+    out: &Path,
+    name: &str,
+    bytes: &[u8],
+    overwrite: bool,
+) -> Result<(), FromCsvError> {
+    let path = out.join(name);
+    let mut open = OpenOptions::new();
+    open.write(true);
+    if overwrite {
+        open.create(true).truncate(true);
+    } else {
+        open.create_new(true);
+    }
+    let mut file = open.open(&path).map_err(|err| {
+        if err.kind() == std::io::ErrorKind::AlreadyExists {
+            FromCsvError::OutputExists(path.clone())
+        } else {
+            io_error(&path)(err)
+        }
+    })?;
+    file.write_all(bytes).map_err(io_error(&path))
+}
