@@ -354,7 +354,7 @@ fn solver_sections<S: MetriplecticSystem>(
         SolverBackend::Clarabel(L1Formulation::default()),
     ] {
         let options = SearchOptions {
-            eta,
+            eta: Some(eta),
             solver: SolverSettings {
                 backend,
                 ..SolverSettings::default()
@@ -405,7 +405,7 @@ fn solver_sections<S: MetriplecticSystem>(
         ),
     ] {
         let options = SearchOptions {
-            eta,
+            eta: Some(eta),
             solver: SolverSettings {
                 backend,
                 ..SolverSettings::default()

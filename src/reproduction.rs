@@ -365,7 +365,7 @@ pub fn run_until<S: MetriplecticSystem>(
         },
         scheme: options.scheme.to_config(),
         search: SearchOptions {
-            eta: experiment.eta,
+            eta: Some(experiment.eta),
             solver: SolverSettings {
                 backend: options.solver.to_backend(),
                 ..SolverSettings::default()

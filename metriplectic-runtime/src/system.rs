@@ -229,6 +229,11 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     /// The classical (GENERIC) constraints, if the system is declared
     /// classical; `None` (the default) for the generalized form.
     const CLASSICAL: Option<Classical> = None;
+    /// The largest |coefficient| of the Hamiltonian's non-constant terms in
+    /// the monomial basis: the scale the default coefficient bound follows
+    /// ([`SearchOptions::eta`](crate::SearchOptions::eta)). The macro
+    /// computes it exactly; default 0 (unknown, the bound's floor applies).
+    const HAMILTONIAN_SCALE: f64 = 0.0;
 
     /// H(x). `x.len() == DIM`.
     fn hamiltonian(x: &[f64]) -> f64;

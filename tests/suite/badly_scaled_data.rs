@@ -37,6 +37,22 @@ metriplectic! {
     }
 }
 
+metriplectic! {
+    /// A rigid body with small moments of inertia (H's coefficients up to
+    /// 150) that comes to rest: its entropy needs coefficients of 200,
+    /// beyond a fixed bound of 20.
+    pub struct FastBody;
+    state (a, b, c);
+    poisson = [[0, -c, b], [c, 0, -a], [-b, a, 0]];
+    hamiltonian = 50 * a^2 + 100 * b^2 + 150 * c^2 + 7;
+    entropy degree 2;
+    metric degree 0;
+    reference {
+        entropy = -200 * (a^2 + b^2 + c^2);
+        metric = [[0.01, 0, 0], [0, 0.02, 0], [0, 0, 0.005]];
+    }
+}
+
 /// Trajectories of the reference model from states of size `scale`.
 fn data<S: MetriplecticSystem>(scale: f64, duration: f64) -> Dataset {
     let truth = Model::<S>::reference().unwrap();
@@ -47,7 +63,7 @@ fn data<S: MetriplecticSystem>(scale: f64, duration: f64) -> Dataset {
             duration,
             seed: 5,
             ..SynthesisOptions::new(
-                InitialStates::cube(2, scale),
+                InitialStates::cube(S::DIM, scale),
                 SampleTimes::LogUniform {
                     count: 20,
                     first: duration * 1e-3,
@@ -94,18 +110,51 @@ fn states_of_a_millionth_identify() {
 
 #[test]
 fn rates_of_a_million_identify() {
+    // The default bound follows H (2e6 here); a fixed 20 once had to be
+    // raised by hand.
     let data = data::<Stiff>(1.0, 5e-6);
-    let config = IdentifyConfig {
-        search: SearchOptions {
-            eta: 1e7,
-            ..SearchOptions::default()
-        },
-        ..joint()
-    };
-    let result = identify::<Stiff>(&data, &config).unwrap();
+    let result = identify::<Stiff>(&data, &joint()).unwrap();
     let error = relative_field_error(&result.model, &data);
     println!("{:?}, relative error {error:e}", result.stop_reason);
     assert!(error < 1e-6, "relative field error {error:e}");
+}
+
+#[test]
+fn the_default_coefficient_bound_follows_the_hamiltonian() {
+    // H's largest non-constant coefficient (the constant 7 does not count).
+    assert_eq!(FastBody::HAMILTONIAN_SCALE, 150.0);
+    assert_eq!(Stiff::HAMILTONIAN_SCALE, 5e5);
+    let default = SearchOptions::default();
+    assert_eq!(default.eta_for::<FastBody>(), 600.0);
+    assert_eq!(default.eta_for::<Stiff>(), 2e6);
+    assert_eq!(default.eta_for::<Micro>(), 20.0);
+    let given = SearchOptions {
+        eta: Some(3.0),
+        ..SearchOptions::default()
+    };
+    assert_eq!(given.eta_for::<Stiff>(), 3.0);
+
+    let data = data::<FastBody>(1.0, 3.0);
+    let result = identify::<FastBody>(&data, &IdentifyConfig::default()).unwrap();
+    let error = relative_field_error(&result.model, &data);
+    println!(
+        "default bound: {:?}, relative error {error:e}",
+        result.stop_reason
+    );
+    assert!(error < 1e-6, "relative field error {error:e}");
+    assert_eq!(result.stop_reason, StopReason::Converged);
+    // The old fixed bound cuts the true entropy off: no fit.
+    let fixed = IdentifyConfig {
+        search: SearchOptions {
+            eta: Some(20.0),
+            ..SearchOptions::default()
+        },
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<FastBody>(&data, &fixed).unwrap();
+    let error = relative_field_error(&result.model, &data);
+    println!("η = 20: {:?}, relative error {error:e}", result.stop_reason);
+    assert!(error > 1e-3, "relative field error {error:e}");
 }
 
 #[test]
@@ -141,7 +190,7 @@ fn what_cannot_be_solved_is_refused_by_name() {
     // η beyond what a model can hold.
     let config = IdentifyConfig {
         search: SearchOptions {
-            eta: 1e300,
+            eta: Some(1e300),
             ..SearchOptions::default()
         },
         ..IdentifyConfig::default()

@@ -209,7 +209,7 @@ fn resuming_with_other_data_configuration_or_system_is_refused() {
 
     let other_eta = IdentifyConfig {
         search: SearchOptions {
-            eta: 25.0,
+            eta: Some(25.0),
             ..SearchOptions::default()
         },
         ..config(None)

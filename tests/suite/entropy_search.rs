@@ -28,7 +28,7 @@ fn recovers_reference_entropy<S: MetriplecticSystem>(data: &Dataset) {
     );
     assert_eq!(fit.report.status, SolveStatus::Solved);
     assert!(
-        error <= 1e-6 * options.eta,
+        error <= 1e-6 * options.eta_for::<S>(),
         "max coefficient error {error:.3e}"
     );
     assert!(

@@ -50,7 +50,7 @@ fn recovers_identity<S: MetriplecticSystem>(data: &Dataset) {
     let fit = metric_search::<S>(data, S::REFERENCE_ENTROPY.unwrap(), &options).unwrap();
     let error = max_abs_difference(&fit.coefficients, &identity_metric::<S>(1.0));
     let cost = fit.report.cost.unwrap();
-    let min_eigen = check_certificate::<S>(&fit, options.eta, 5, true);
+    let min_eigen = check_certificate::<S>(&fit, options.eta_for::<S>(), 5, true);
     eprintln!(
         "{}: status {}, {} IPM iterations, assembly {:.3}s, solver {:.3}s, \
          max |θ − θ_true| = {error:.2e}, mean |residual| = {:.2e}, min eig K(x) = {min_eigen:.3e}",
@@ -86,7 +86,7 @@ fn full_tables<S: MetriplecticSystem>(data: &Dataset) {
     };
     let fit = metric_search::<S>(data, S::REFERENCE_ENTROPY.unwrap(), &options).unwrap();
     let error = max_abs_difference(&fit.coefficients, &identity_metric::<S>(1.0));
-    let min_eigen = check_certificate::<S>(&fit, options.eta, 6, false);
+    let min_eigen = check_certificate::<S>(&fit, options.eta_for::<S>(), 6, false);
     eprintln!(
         "{} full SOS tables (Gram {}×{}): status {}, {} IPM iterations, solver {:.3}s, \
          max |θ − θ_true| = {error:.2e}, min eig K(x) = {min_eigen:.3e}",

@@ -78,7 +78,7 @@ fn cold_start<S: MetriplecticSystem>(radius: f64, region_radius: f64) {
         max_iterations: 150,
         ..IdentifyConfig::default()
     };
-    let eta = config.search.eta;
+    let eta = config.search.eta_for::<S>();
     let run = identify::<S>(&train, &config).unwrap();
     let (field, metric) = errors(&run.model, &held_out);
     let nonoptimal = run

@@ -46,7 +46,7 @@ fn eta_too_small_for_the_truth_gives_the_best_fit_within_the_bound() {
     let data = linear2d_data(40, 31);
     let config = IdentifyConfig {
         search: SearchOptions {
-            eta: 1.0,
+            eta: Some(1.0),
             ..SearchOptions::default()
         },
         max_iterations: 3,

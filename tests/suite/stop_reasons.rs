@@ -3,7 +3,7 @@
 //! cannot determine the model.
 
 use metriplectic_runtime::prelude::*;
-use metriplectic_runtime::{CoefficientBlock, IdentifyWarning, StopReason};
+use metriplectic_runtime::{CoefficientBlock, IdentifyWarning, SearchOptions, StopReason};
 
 use crate::common::{linear2d_data, Linear2d};
 
@@ -80,4 +80,38 @@ fn well_posed_data_have_no_warnings() {
     assert!(result.warnings.is_empty(), "{:?}", result.warnings);
     assert_eq!(result.stop_reason, StopReason::Converged);
     assert!(relative_error(&result.model, &data) < 1e-8);
+}
+
+#[test]
+fn a_bound_below_the_true_coefficients_is_reported() {
+    // The 2-D system's largest true entropy coefficient is 16: with η = 10
+    // the bound decides some coefficients, and the run says so.
+    let data = linear2d_data(300, 6);
+    let config = IdentifyConfig {
+        search: SearchOptions {
+            eta: Some(10.0),
+            ..SearchOptions::default()
+        },
+        max_iterations: 10,
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    let warning = result
+        .warnings
+        .iter()
+        .find(|w| matches!(w, IdentifyWarning::AtCoefficientBound { .. }))
+        .unwrap_or_else(|| panic!("no bound warning in {:?}", result.warnings));
+    let IdentifyWarning::AtCoefficientBound { count, eta } = warning else {
+        unreachable!()
+    };
+    assert_eq!(*eta, 10.0);
+    let at_bound = result
+        .model
+        .entropy_coefficients()
+        .iter()
+        .filter(|c| c.abs() >= 10.0 * (1.0 - 1e-6))
+        .count();
+    assert!(*count >= 1 && *count == at_bound, "{count} vs {at_bound}");
+    let message = warning.to_string();
+    assert!(message.contains("SearchOptions::eta"), "{message}");
 }

@@ -407,6 +407,8 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
             0.0,
         ],
     );
+    /// The largest |coefficient| of the Hamiltonian's non-constant terms.
+    const HAMILTONIAN_SCALE: ::core::primitive::f64 = 0.5;
     #[inline]
     fn hamiltonian(__x: &[::core::primitive::f64]) -> ::core::primitive::f64 {
         __metriplectic_Oscillator::hamiltonian(__x)

@@ -600,14 +600,14 @@ mod tests {
             },
             IdentifyConfig {
                 search: SearchOptions {
-                    eta: 0.0,
+                    eta: Some(0.0),
                     ..SearchOptions::default()
                 },
                 ..alternation()
             },
             IdentifyConfig {
                 search: SearchOptions {
-                    eta: f64::NAN,
+                    eta: Some(f64::NAN),
                     ..SearchOptions::default()
                 },
                 ..alternation()

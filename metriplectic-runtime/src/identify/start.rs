@@ -146,7 +146,10 @@ fn scaled_start<S: MetriplecticSystem>(
     let walk = |scales: &[f64], best: &mut Option<Start>| -> Result<bool> {
         let mut moved = false;
         // The default metric's largest eigenvalue is 1: c·metric ⪯ ηI for c ≤ η.
-        for &scale in scales.iter().filter(|&&c| c <= config.search.eta) {
+        for &scale in scales
+            .iter()
+            .filter(|&&c| c <= config.search.eta_for::<S>())
+        {
             if best
                 .as_ref()
                 .is_some_and(|(incumbent, _, _)| fitted(incumbent))

@@ -16,6 +16,10 @@ use crate::system::MetriplecticSystem;
 /// Singular values below this fraction of the largest count as zero.
 const RANK_TOLERANCE: f64 = 1e-12;
 
+/// An entropy coefficient within this fraction of η of ±η is at the bound
+/// (an interior-point solution stops a few digits short of an active bound).
+const BOUND_TOLERANCE: f64 = 1e-6;
+
 /// A coefficient block of a model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum CoefficientBlock {
@@ -48,6 +52,15 @@ pub enum IdentifyWarning {
         /// Number of coefficients in the block.
         coefficients: usize,
     },
+    /// `count` entropy coefficients of the returned model sit at the
+    /// coefficient bound |ψₖ| ≤ η: the bound, not the data, decided them,
+    /// and the model the data need may lie beyond it.
+    AtCoefficientBound {
+        /// Entropy coefficients at ±η.
+        count: usize,
+        /// The bound η the run used.
+        eta: f64,
+    },
 }
 
 impl std::fmt::Display for IdentifyWarning {
@@ -71,6 +84,12 @@ impl std::fmt::Display for IdentifyWarning {
                     CoefficientBlock::Entropy => "entropy",
                     CoefficientBlock::Metric => "free metric",
                 }
+            ),
+            Self::AtCoefficientBound { count, eta } => write!(
+                f,
+                "{count} entropy coefficient{} at the bound |ψ| ≤ η = {eta:e}: the bound may cut off \
+                 the model the data need; raise SearchOptions::eta",
+                if *count == 1 { " is" } else { "s are" }
             ),
         }
     }
@@ -104,6 +123,18 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
                 coefficients: p,
             });
         }
+    }
+    let eta = config.search.eta_for::<S>();
+    let psi = model.entropy_coefficients();
+    let at_bound = free_entropy
+        .iter()
+        .filter(|&&k| psi[k].abs() >= (1.0 - BOUND_TOLERANCE) * eta)
+        .count();
+    if at_bound > 0 {
+        warnings.push(IdentifyWarning::AtCoefficientBound {
+            count: at_bound,
+            eta,
+        });
     }
     let metric = metric_regression::<S>(data, model.entropy_coefficients())?;
     if let Some(rank) = numerical_rank(&metric, &free) {

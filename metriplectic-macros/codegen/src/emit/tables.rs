@@ -116,3 +116,19 @@ pub fn reference(reference: Option<&ReferenceModel>) -> TokenStream {
         },
     }
 }
+
+/// `HAMILTONIAN_SCALE`: the largest |coefficient| of H's non-constant terms
+/// (the constant does not affect the dynamics), exact until rounded here.
+pub fn hamiltonian_scale(system: &System) -> TokenStream {
+    let scale = system
+        .hamiltonian
+        .terms()
+        .filter(|(e, _)| e.iter().any(|&k| k > 0))
+        .map(|(_, c)| c.to_f64().abs())
+        .fold(0.0, f64::max);
+    let value = super::literals::float(scale);
+    quote! {
+        /// The largest |coefficient| of the Hamiltonian's non-constant terms.
+        const HAMILTONIAN_SCALE: ::core::primitive::f64 = #value;
+    }
+}

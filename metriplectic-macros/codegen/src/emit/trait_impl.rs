@@ -35,6 +35,7 @@ pub fn trait_impl(
     let sos_full = tables::sos(&bases.sos_full, &bases.sos_full_matching);
     let sos_reduced = tables::sos(&[vec![0; system.state.len()]], &bases.sos_reduced_matching);
     let reference = tables::reference(system.reference.as_ref());
+    let hamiltonian_scale = tables::hamiltonian_scale(system);
     let certificate = super::certificate::trait_consts(system, &bindings::module_name(name));
     let module = bindings::module_name(name);
     let f64 = quote!(::core::primitive::f64);
@@ -67,6 +68,7 @@ pub fn trait_impl(
             const SOS_FULL: ::metriplectic_runtime::SosTables = #sos_full;
             const SOS_REDUCED: ::metriplectic_runtime::SosTables = #sos_reduced;
             #reference
+            #hamiltonian_scale
             #certificate
             #(#methods)*
         }

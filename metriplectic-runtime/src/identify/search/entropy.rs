@@ -50,6 +50,7 @@ pub fn entropy_search<S: MetriplecticSystem>(
     check_len("metric coefficients", metric, S::metric_coefficient_count())?;
     check_finite("metric coefficients", metric)?;
     options.validate_for::<S>()?;
+    let eta = options.eta_for::<S>();
 
     let start = std::time::Instant::now();
     // Coefficients outside the support are columns left out.
@@ -66,7 +67,7 @@ pub fn entropy_search<S: MetriplecticSystem>(
         entries.push((k, k, 1.0));
         entries.push((p + k, k, -1.0));
     }
-    problem.constrain(Cone::Nonnegative(2 * p), entries, vec![options.eta; 2 * p])?;
+    problem.constrain(Cone::Nonnegative(2 * p), entries, vec![eta; 2 * p])?;
     // The classical form: S a Casimir of Π.
     let casimir = Equalities::new(classical::entropy_rows::<S>(), &free);
     if !casimir.is_empty() {
@@ -81,7 +82,7 @@ pub fn entropy_search<S: MetriplecticSystem>(
 
     let mut coefficients = vec![0.0; S::entropy_coefficient_count()];
     for (&k, &v) in free.iter().zip(solution.coefficients()) {
-        coefficients[k] = v.clamp(-options.eta, options.eta);
+        coefficients[k] = v.clamp(-eta, eta);
     }
     casimir.project_coefficients(&mut coefficients);
     let cost = Model::<S>::new(coefficients.clone(), metric.to_vec())
@@ -162,7 +163,7 @@ mod tests {
         // With η below the largest true coefficient (0.8) the fit must clip.
         let data = reference_data(30, 2);
         let options = SearchOptions {
-            eta: 0.5,
+            eta: Some(0.5),
             ..SearchOptions::default()
         };
         let fit =
@@ -178,7 +179,7 @@ mod tests {
         let metric = identity_metric::<Quadratic2d>(1.0);
         for eta in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             let options = SearchOptions {
-                eta,
+                eta: Some(eta),
                 ..SearchOptions::default()
             };
             assert!(matches!(

@@ -180,6 +180,7 @@ fn step_with_offset<S: MetriplecticSystem>(
 ) -> Result<JointStep> {
     check_dataset::<S>(data)?;
     options.validate_for::<S>()?;
+    let eta = options.eta_for::<S>();
     if !(radius.is_finite() && radius > 0.0) {
         return Err(invalid(
             "trust radius",
@@ -218,7 +219,7 @@ fn step_with_offset<S: MetriplecticSystem>(
         regression.stacked(&penalty),
         SosConstraints::variables::<S>(&layout),
     );
-    let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, t_len + p)?;
+    let sos = add_sos_constraints::<S>(&mut problem, &layout, eta, 0, t_len + p)?;
     let degenerate = add_metric_restrictions::<S>(&mut problem, options, 0)?;
     // The classical form: C_S (ψ + d) = C_S d = 0, the current ψ meeting it.
     let casimir = Equalities::new(classical::entropy_rows::<S>(), &free);
@@ -242,10 +243,7 @@ fn step_with_offset<S: MetriplecticSystem>(
         let row = 2 * (t_len + k);
         entries.push((row, t_len + k, 1.0));
         entries.push((row + 1, t_len + k, -1.0));
-        rhs.extend([
-            reach.min(options.eta - value),
-            reach.min(options.eta + value),
-        ]);
+        rhs.extend([reach.min(eta - value), reach.min(eta + value)]);
     }
     problem.constrain(Cone::Nonnegative(rhs.len()), entries, rhs)?;
     let build_seconds = start.elapsed().as_secs_f64();
@@ -263,7 +261,7 @@ fn step_with_offset<S: MetriplecticSystem>(
     degenerate.project_coefficients(&mut metric);
     let mut entropy = all_psi.to_vec();
     for ((&k, v), d) in free.iter().zip(&psi).zip(&step[t_len..]) {
-        entropy[k] = (v + d).clamp(-options.eta, options.eta);
+        entropy[k] = (v + d).clamp(-eta, eta);
     }
     casimir.project_coefficients(&mut entropy);
     let cost = Model::<S>::new(entropy.clone(), metric.clone())

@@ -67,7 +67,8 @@ pub fn metric_search<S: MetriplecticSystem>(
         metric_regression::<S>(data, entropy)?,
         SosConstraints::variables::<S>(&layout),
     );
-    let sos = add_sos_constraints::<S>(&mut problem, &layout, options.eta, 0, theta_len)?;
+    let sos =
+        add_sos_constraints::<S>(&mut problem, &layout, options.eta_for::<S>(), 0, theta_len)?;
     let degenerate = add_metric_restrictions::<S>(&mut problem, options, 0)?;
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;

@@ -29,13 +29,15 @@ use crate::model::MAX_COEFFICIENT;
 use crate::solve::{L1Solution, SolveStatus, SolverSettings};
 
 /// Options shared by the three searches.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SearchOptions {
     /// Coefficient bound η: |ψₖ| ≤ η and 0 ⪯ K(x) ⪯ ηI, at most 1e15 (the
-    /// largest coefficient a model holds). Default 20 (the 2-D paper
-    /// system's largest true entropy coefficient is 16).
-    pub eta: f64,
+    /// largest coefficient a model holds). Default `None`: η follows the
+    /// system, max(20, 4h) with h its Hamiltonian's largest coefficient
+    /// ([`MetriplecticSystem::HAMILTONIAN_SCALE`](crate::MetriplecticSystem::HAMILTONIAN_SCALE)),
+    /// see [`eta_for`](Self::eta_for).
+    pub eta: Option<f64>,
     /// SOS tables of the metric certificate. Default [`SosBasis::Reduced`].
     pub sos: SosBasis,
     /// Solver settings, including the backend. Default [`SolverSettings::default`].
@@ -48,23 +50,29 @@ pub struct SearchOptions {
     pub gauge: Option<Gauge>,
 }
 
-impl Default for SearchOptions {
-    fn default() -> Self {
-        Self {
-            eta: 20.0,
-            sos: SosBasis::default(),
-            solver: SolverSettings::default(),
-            support: Support::default(),
-            gauge: None,
-        }
-    }
-}
-
 impl SearchOptions {
+    /// The coefficient bound η for system `S`: [`eta`](Self::eta) if given,
+    /// else max(20, 4h), h = `S::HAMILTONIAN_SCALE`, at most 1e15.
+    ///
+    /// The bound only keeps the programs compact; it must never cut off the
+    /// model the data need. 20 covers unit-scale systems (the 2-D paper
+    /// system's largest true entropy coefficient is 16, the SO(3) body's is
+    /// 4.5 with h = 5). A system that comes to rest needs an entropy whose
+    /// curvature outweighs H's, since the free energy E = H + S has its
+    /// maximum there, so its coefficients grow with H's: an SO(3) body with
+    /// h = 150 needs 200, which the fixed bound of 20 cut off (a fit 4% off
+    /// on exact data, stopped by stagnation); 4h leaves room for that.
+    pub fn eta_for<S: crate::system::MetriplecticSystem>(&self) -> f64 {
+        self.eta
+            .unwrap_or_else(|| default_eta(S::HAMILTONIAN_SCALE))
+    }
+
     /// Checks η, the solver settings and the gauge (the support is checked
     /// against the system by every search).
     pub fn validate(&self) -> Result<()> {
-        check_eta(self.eta)?;
+        if let Some(eta) = self.eta {
+            check_eta(eta)?;
+        }
         if let Some(gauge) = self.gauge {
             gauge.validate()?;
         }
@@ -77,12 +85,13 @@ impl SearchOptions {
     pub fn validate_for<S: crate::system::MetriplecticSystem>(&self) -> Result<()> {
         self.validate()?;
         self.support.validate::<S>()?;
+        let eta = self.eta_for::<S>();
         match self.gauge {
-            Some(Gauge::MetricTrace(value)) if value > S::DIM as f64 * self.eta => Err(invalid(
+            Some(Gauge::MetricTrace(value)) if value > S::DIM as f64 * eta => Err(invalid(
                 "gauge",
                 format!(
                     "metric trace {value} exceeds n·η = {}: no metric with K ⪯ ηI has it",
-                    S::DIM as f64 * self.eta
+                    S::DIM as f64 * eta
                 ),
             )),
             Some(gauge) if S::CLASSICAL.is_some() => check_gauge_is_free::<S>(gauge, self),
@@ -116,6 +125,18 @@ fn check_gauge_is_free<S: crate::system::MetriplecticSystem>(
         ));
     }
     Ok(())
+}
+
+/// The bound when none is given: max(20, 4h) for a Hamiltonian whose
+/// largest coefficient is `h`, at most what a model holds (20 if `h` is
+/// not a number).
+fn default_eta(h: f64) -> f64 {
+    let scaled = 4.0 * h;
+    if scaled > 20.0 {
+        scaled.min(MAX_COEFFICIENT)
+    } else {
+        20.0
+    }
 }
 
 /// Validates η: positive and at most what a model can hold.
@@ -225,7 +246,7 @@ mod tests {
         let options = |backend, sos| SearchOptions {
             solver: settings(backend),
             sos,
-            eta: 1.5,
+            eta: Some(1.5),
             ..SearchOptions::default()
         };
         let dense = SolverBackend::Dense;
