@@ -4,8 +4,8 @@
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    synthesize, InitialStates, IterationScheme, SampleTimes, SearchOptions, StopReason,
-    SynthesisOptions, TrustRegion,
+    synthesize, IdentifyWarning, InitialStates, IterationScheme, SampleTimes, SearchOptions,
+    StopReason, SynthesisOptions, TrustRegion,
 };
 
 metriplectic! {
@@ -155,6 +155,16 @@ fn the_default_coefficient_bound_follows_the_hamiltonian() {
     let error = relative_field_error(&result.model, &data);
     println!("η = 20: {:?}, relative error {error:e}", result.stop_reason);
     assert!(error > 1e-3, "relative field error {error:e}");
+    // No coefficient reached the bound, but the run says why it may fail.
+    assert!(
+        result.warnings.iter().any(|w| matches!(
+            w,
+            IdentifyWarning::BoundBelowHamiltonian { eta, hamiltonian_scale }
+                if *eta == 20.0 && *hamiltonian_scale == 150.0
+        )),
+        "{:?}",
+        result.warnings
+    );
 }
 
 #[test]

@@ -61,6 +61,16 @@ pub enum IdentifyWarning {
         /// The bound η the run used.
         eta: f64,
     },
+    /// The bound η is below the Hamiltonian's largest coefficient
+    /// ([`MetriplecticSystem::HAMILTONIAN_SCALE`]): no entropy within it can
+    /// outweigh H, as the entropy of a system that comes to rest must, so
+    /// the fit may be poor without any coefficient reaching the bound.
+    BoundBelowHamiltonian {
+        /// The bound η the run used.
+        eta: f64,
+        /// The Hamiltonian's largest non-constant coefficient.
+        hamiltonian_scale: f64,
+    },
 }
 
 impl std::fmt::Display for IdentifyWarning {
@@ -90,6 +100,15 @@ impl std::fmt::Display for IdentifyWarning {
                 "{count} entropy coefficient{} at the bound |ψ| ≤ η = {eta:e}: the bound may cut off \
                  the model the data need; raise SearchOptions::eta",
                 if *count == 1 { " is" } else { "s are" }
+            ),
+            Self::BoundBelowHamiltonian {
+                eta,
+                hamiltonian_scale,
+            } => write!(
+                f,
+                "the coefficient bound η = {eta:e} is below the Hamiltonian's largest coefficient \
+                 {hamiltonian_scale:e}: no entropy within it can outweigh H; raise \
+                 SearchOptions::eta or leave it None (max(20, 4h))"
             ),
         }
     }
@@ -134,6 +153,12 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         warnings.push(IdentifyWarning::AtCoefficientBound {
             count: at_bound,
             eta,
+        });
+    }
+    if eta < S::HAMILTONIAN_SCALE {
+        warnings.push(IdentifyWarning::BoundBelowHamiltonian {
+            eta,
+            hamiltonian_scale: S::HAMILTONIAN_SCALE,
         });
     }
     let metric = metric_regression::<S>(data, model.entropy_coefficients())?;
