@@ -57,7 +57,7 @@ impl SearchOptions {
     /// The bound only keeps the programs compact; it must never cut off the
     /// model the data need. 20 covers unit-scale systems (the 2-D paper
     /// system's largest true entropy coefficient is 16, the SO(3) body's is
-    /// 4.5 with h = 5). A system that comes to rest needs an entropy whose
+    /// 4 with h = 5). A system that comes to rest needs an entropy whose
     /// curvature outweighs H's, since the free energy E = H + S has its
     /// maximum there, so its coefficients grow with H's: an SO(3) body with
     /// h = 150 needs 200, which the fixed bound of 20 cut off (a fit 4% off
