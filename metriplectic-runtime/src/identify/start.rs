@@ -142,14 +142,12 @@ fn scaled_start<S: MetriplecticSystem>(
             .and_then(|(entropy, cost)| cost.map(|cost| (cost, entropy, metric))))
     };
     let fitted = |cost: &Cost| cost.per_component <= config.tolerance * data_scale(batch);
+    // The default metric's largest eigenvalue is 1: c·metric ⪯ ηI for c ≤ η.
+    let eta = config.search.eta_for::<S>();
     // Walks along `scales` while each fits better than the best so far.
     let walk = |scales: &[f64], best: &mut Option<Start>| -> Result<bool> {
         let mut moved = false;
-        // The default metric's largest eigenvalue is 1: c·metric ⪯ ηI for c ≤ η.
-        for &scale in scales
-            .iter()
-            .filter(|&&c| c <= config.search.eta_for::<S>())
-        {
+        for &scale in scales.iter().filter(|&&c| c <= eta) {
             if best
                 .as_ref()
                 .is_some_and(|(incumbent, _, _)| fitted(incumbent))

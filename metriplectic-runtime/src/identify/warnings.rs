@@ -161,7 +161,7 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             hamiltonian_scale: S::HAMILTONIAN_SCALE,
         });
     }
-    let metric = metric_regression::<S>(data, model.entropy_coefficients())?;
+    let metric = metric_regression::<S>(data, psi)?;
     if let Some(rank) = numerical_rank(&metric, &free) {
         if rank < free.len() {
             warnings.push(IdentifyWarning::RankDeficient {
