@@ -115,3 +115,56 @@ fn a_bound_below_the_true_coefficients_is_reported() {
     let message = warning.to_string();
     assert!(message.contains("SearchOptions::eta"), "{message}");
 }
+
+#[test]
+fn a_run_cut_short_while_improving_says_so() {
+    // From the paper's perturbed start the data converge on their own in a
+    // few iterations; capped two iterations earlier, the run reports how
+    // fast it was still improving and what the tolerance would take at
+    // that rate.
+    let data = linear2d_data(300, 6);
+    let start = IdentifyConfig {
+        initial_entropy: Some(
+            metriplectic::systems::perturbed_reference_entropy::<Linear2d>(0.5, 5),
+        ),
+        ..IdentifyConfig::default()
+    };
+    let full = identify::<Linear2d>(&data, &start).unwrap();
+    assert_eq!(full.stop_reason, StopReason::Converged);
+    let needed = full.history.iterations.len();
+    assert!(needed >= 3, "converged in {needed} iterations");
+    let config = IdentifyConfig {
+        max_iterations: needed - 2,
+        ..start
+    };
+    let capped = identify::<Linear2d>(&data, &config).unwrap();
+    assert_eq!(capped.stop_reason, StopReason::MaxIterations);
+    let warning = capped
+        .warnings
+        .iter()
+        .find(|w| matches!(w, IdentifyWarning::StillImproving { .. }))
+        .unwrap_or_else(|| panic!("no progress warning in {:?}", capped.warnings));
+    let IdentifyWarning::StillImproving {
+        cost,
+        target,
+        rate,
+        projected_iterations,
+    } = warning
+    else {
+        unreachable!()
+    };
+    let last = capped.history.iterations.last().unwrap().cost_after();
+    assert_eq!(*cost, last.per_component);
+    assert!(*cost > *target && *target > 0.0, "{cost:e} vs {target:e}");
+    assert!(*rate > 0.0 && *rate < 1.0, "rate {rate}");
+    let more = projected_iterations.expect("a projection for a positive tolerance");
+    assert!(more >= 1, "{more}");
+    eprintln!("capped at {} of {needed}: {warning}", needed - 2);
+    let message = warning.to_string();
+    assert!(message.contains("max_iterations"), "{message}");
+    // A run that ends on its own carries no such warning.
+    assert!(!full
+        .warnings
+        .iter()
+        .any(|w| matches!(w, IdentifyWarning::StillImproving { .. })));
+}

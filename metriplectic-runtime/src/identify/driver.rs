@@ -8,14 +8,14 @@ use std::path::Path;
 
 use super::checkpoint;
 use super::config::IdentifyConfig;
-use super::cost::model_cost;
+use super::cost::{data_scale, model_cost};
 use super::history::{History, IterationRecord, StopReason};
 use super::iterate::{iterate, Split};
 use super::start::{initial_coefficients, start_sample};
 use super::state::RunState;
 use super::steps::iterate_on;
 use super::warm_up::{warm_up, warms_up};
-use super::warnings::{data_warnings, IdentifyWarning};
+use super::warnings::{data_warnings, progress_warning, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::Result;
@@ -32,8 +32,10 @@ pub struct Identification<S: MetriplecticSystem> {
     pub history: History,
     /// Why the run stopped.
     pub stop_reason: StopReason,
-    /// What the data cannot determine (empty when they determine every
-    /// coefficient): read these before trusting the coefficients.
+    /// What the data cannot determine, and whether the run stopped at its
+    /// iteration cap while still improving (empty when the data determine
+    /// every coefficient and the run ended on its own): read these before
+    /// trusting the coefficients.
     pub warnings: Vec<IdentifyWarning>,
 }
 
@@ -253,6 +255,16 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
     mut state: RunState<S>,
 ) -> Result<Identification<S>> {
     let stop_reason = state.stopped.unwrap_or(StopReason::MaxIterations);
+    // Measured before the polish, on the iterations the cap cut short.
+    let still_improving = if stop_reason == StopReason::MaxIterations {
+        let scale = match &split.validation {
+            Some(validation) => data_scale(validation),
+            None => data_scale(data),
+        };
+        progress_warning(&state.history, config, config.tolerance * scale)
+    } else {
+        None
+    };
     if let Some((best, _)) = &state.best {
         state.model = best.clone();
     }
@@ -283,7 +295,8 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
             }
         }
     }
-    let warnings = data_warnings(data, &state.model, config)?;
+    let mut warnings = data_warnings(data, &state.model, config)?;
+    warnings.extend(still_improving);
     Ok(Identification {
         model: state.model,
         history: state.history,

@@ -1,10 +1,12 @@
-//! What the data cannot determine: typed warnings an identification returns
-//! instead of silence when the samples are too few or too alike for the
-//! coefficients sought.
+//! What the data cannot determine, and what a run left unsettled: typed
+//! warnings an identification returns instead of silence when the samples
+//! are too few or too alike for the coefficients sought, or when the run hit
+//! its iteration cap while still improving.
 
 use serde::{Deserialize, Serialize};
 
 use super::config::IdentifyConfig;
+use super::history::History;
 use super::search::{entropy_regression, metric_regression};
 use crate::data::IdentificationData;
 use crate::error::Result;
@@ -19,6 +21,15 @@ const RANK_TOLERANCE: f64 = 1e-12;
 /// An entropy coefficient within this fraction of η of ±η is at the bound
 /// (an interior-point solution stops a few digits short of an active bound).
 const BOUND_TOLERANCE: f64 = 1e-6;
+
+/// Iterations over which [`IdentifyWarning::StillImproving`] measures the
+/// rate when the run has no stagnation window.
+const DEFAULT_RATE_WINDOW: usize = 5;
+
+/// Below this fall per iteration, [`IdentifyWarning::StillImproving`]'s
+/// message mentions a curved valley (the crawls measured in
+/// `docs/method.md` §3 fell 0.1–1% per iteration).
+const SLOW_RATE: f64 = 0.02;
 
 /// A coefficient block of a model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -71,6 +82,25 @@ pub enum IdentifyWarning {
         /// The Hamiltonian's largest non-constant coefficient.
         hamiltonian_scale: f64,
     },
+    /// The run reached [`IdentifyConfig::max_iterations`] while its score
+    /// was still falling: more iterations would fit better. A steady fall of
+    /// a few per cent or less per iteration can also mean the iterates
+    /// follow a curved valley of the bilinear cost, which they leave only
+    /// slowly (`docs/method.md` §3); the message then says so.
+    StillImproving {
+        /// The last score (cost per component, on the validation samples or
+        /// the full batch).
+        cost: f64,
+        /// The score the run would stop at: the tolerance times the data's
+        /// scale.
+        target: f64,
+        /// Mean fraction by which the score fell per iteration over the last
+        /// iterations (the stagnation window, 5 without one).
+        rate: f64,
+        /// Further iterations the target would take at that rate; `None`
+        /// when the target is 0.
+        projected_iterations: Option<u64>,
+    },
 }
 
 impl std::fmt::Display for IdentifyWarning {
@@ -110,8 +140,83 @@ impl std::fmt::Display for IdentifyWarning {
                  {hamiltonian_scale:e}: no entropy within it can outweigh H; raise \
                  SearchOptions::eta or leave it None (max(20, 4h))"
             ),
+            Self::StillImproving {
+                cost,
+                target,
+                rate,
+                projected_iterations,
+            } => {
+                write!(
+                    f,
+                    "the run reached max_iterations while still improving: cost per component \
+                     {cost:.3e}, falling {:.3}% per iteration",
+                    rate * 100.0
+                )?;
+                if let Some(more) = projected_iterations {
+                    write!(
+                        f,
+                        "; at that rate the tolerance ({target:.3e}) takes about {more} more \
+                         iterations"
+                    )?;
+                }
+                write!(f, "; raise IdentifyConfig::max_iterations")?;
+                if *rate < SLOW_RATE {
+                    write!(
+                        f,
+                        ", or accept the model as it is: a fall this slow and steady can be a \
+                         curved valley of the cost that more iterations leave only slowly"
+                    )?;
+                }
+                Ok(())
+            }
         }
     }
+}
+
+/// [`IdentifyWarning::StillImproving`] for a run that stopped at its
+/// iteration cap with `history`, if its score fell over the last iterations
+/// and is still above `target`. Scores are the validation costs, or the
+/// batch costs of a full-batch run (a minibatch run without validation
+/// samples scores a different batch every iteration, so it gets none);
+/// warm-up and polish iterations are left out.
+pub(crate) fn progress_warning(
+    history: &History,
+    config: &IdentifyConfig,
+    target: f64,
+) -> Option<IdentifyWarning> {
+    let full_batch = config.batch_size.is_none();
+    let scores: Vec<f64> = history
+        .iterations
+        .iter()
+        .filter(|record| !record.warm_up && !record.polish)
+        .map(|record| match record.validation_cost {
+            Some(score) => Some(score.per_component),
+            None if full_batch => Some(record.cost_after().per_component),
+            None => None,
+        })
+        .collect::<Option<_>>()?;
+    let window = config
+        .stagnation
+        .map_or(DEFAULT_RATE_WINDOW, |stagnation| stagnation.window);
+    let span = window.min(scores.len().saturating_sub(1));
+    let (&last, &earlier) = (scores.last()?, scores.get(scores.len() - 1 - span)?);
+    // Nothing to project from: no span, no fall, or already at the target.
+    if span == 0 || !(last > 0.0 && last < earlier && last > target) || !last.is_finite() {
+        return None;
+    }
+    let per_iteration = (last / earlier).powf(1.0 / span as f64);
+    let rate = 1.0 - per_iteration;
+    let projected_iterations = (target > 0.0).then(|| {
+        let more = (last / target).ln() / -per_iteration.ln();
+        // Saturates for a fall too slow to count.
+        more.ceil().min(u64::MAX as f64) as u64
+    });
+    Some(IdentifyWarning::StillImproving {
+        cost: last,
+        target,
+        rate,
+        projected_iterations,
+    })
 }
 
 /// The warnings for `model` identified from `data`.
