@@ -198,25 +198,32 @@ pub(crate) fn progress_warning(
     let window = config
         .stagnation
         .map_or(DEFAULT_RATE_WINDOW, |stagnation| stagnation.window);
-    let span = window.min(scores.len().saturating_sub(1));
-    let (&last, &earlier) = (scores.last()?, scores.get(scores.len() - 1 - span)?);
-    // Nothing to project from: no span, no fall, or already at the target.
-    if span == 0 || !(last > 0.0 && last < earlier && last > target) || !last.is_finite() {
-        return None;
-    }
-    let per_iteration = (last / earlier).powf(1.0 / span as f64);
-    let rate = 1.0 - per_iteration;
-    let projected_iterations = (target > 0.0).then(|| {
-        let more = (last / target).ln() / -per_iteration.ln();
-        // Saturates for a fall too slow to count.
-        more.ceil().min(u64::MAX as f64) as u64
-    });
+    let (rate, projected_iterations) = fall_rate(&scores, window, target)?;
     Some(IdentifyWarning::StillImproving {
-        cost: last,
+        cost: scores[scores.len() - 1],
         target,
         rate,
         projected_iterations,
     })
+}
+
+/// The mean fraction by which `scores` fell per iteration over their last
+/// `window` iterations, and the iterations `target` would take at that
+/// rate (`None` for a target of 0); `None` if there are fewer than two
+/// scores, they did not fall, or the last is already at the target.
+fn fall_rate(scores: &[f64], window: usize, target: f64) -> Option<(f64, Option<u64>)> {
+    let span = window.min(scores.len().checked_sub(1)?);
+    let (last, earlier) = (scores[scores.len() - 1], scores[scores.len() - 1 - span]);
+    if span == 0 || !(last > 0.0 && last < earlier && last > target) || !last.is_finite() {
+        return None;
+    }
+    let per_iteration = (last / earlier).powf(1.0 / span as f64);
+    let projected = (target > 0.0).then(|| {
+        let more = (last / target).ln() / -per_iteration.ln();
+        // Saturates for a fall too slow to count.
+        more.ceil().min(u64::MAX as f64) as u64
+    });
+    Some((1.0 - per_iteration, projected))
 }
 
 /// The warnings for `model` identified from `data`.
@@ -310,6 +317,26 @@ fn numerical_rank(regression: &Regression, columns: &[usize]) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_fall_rate_is_the_mean_over_the_window() {
+        // Halving every iteration: 1/2 per iteration, and 0.25 → 0.01 takes
+        // ln 25 / ln 2 = 4.6, so 5 more iterations.
+        let (rate, more) = fall_rate(&[1.0, 0.5, 0.25], 5, 0.01).unwrap();
+        assert!((rate - 0.5).abs() < 1e-15, "{rate}");
+        assert_eq!(more, Some(5));
+        // Only the window counts: the first fall (×1e-3) is outside it.
+        let (rate, _) = fall_rate(&[1.0, 1e-3, 0.9e-3, 0.81e-3], 2, 1e-9).unwrap();
+        assert!((rate - 0.1).abs() < 1e-12, "{rate}");
+        // A target of 0 has no projection.
+        assert_eq!(fall_rate(&[1.0, 0.5], 5, 0.0).unwrap().1, None);
+        // Nothing to project: one score, no fall, at the target.
+        assert_eq!(fall_rate(&[1.0], 5, 0.01), None);
+        assert_eq!(fall_rate(&[], 5, 0.01), None);
+        assert_eq!(fall_rate(&[0.5, 0.5], 5, 0.01), None);
+        assert_eq!(fall_rate(&[0.5, 0.6], 5, 0.01), None);
+        assert_eq!(fall_rate(&[0.5, 0.01], 5, 0.01), None);
+    }
 
     /// Above 2·10⁹ rows × columns² (where a direct SVD used to be skipped,
     /// leaving large runs unchecked) the rank is still computed: a column
