@@ -191,9 +191,10 @@ pub fn run(options: &Options) -> Result<Summary> {
 }
 
 /// The largest residuals of the classical rows (each scaled to max |c| = 1)
-/// at the model's coefficients: (Casimir rows, K∇H rows).
-pub fn residuals(model: &Model<ClassicalRigidBody>) -> (f64, f64) {
-    let Some(classical) = ClassicalRigidBody::CLASSICAL else {
+/// at the model's coefficients: (Casimir rows, K∇H rows); NaN for a system
+/// not declared `classical;`.
+pub fn residuals<S: MetriplecticSystem>(model: &Model<S>) -> (f64, f64) {
+    let Some(classical) = S::CLASSICAL else {
         return (f64::NAN, f64::NAN);
     };
     let worst = |rows: &[metriplectic_runtime::LinearForm], values: &[f64]| {

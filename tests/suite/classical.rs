@@ -188,3 +188,63 @@ fn a_classical_system_without_a_region_starts_from_the_projected_identity() {
         "{theta:?}"
     );
 }
+
+metriplectic! {
+    /// A thermal oscillator: friction on p heats the internal variable s
+    /// (temperature T = ∂H/∂s = s). K = γ w wᵀ with w = (0, s, −p), so
+    /// K∇H = γ w (sp − ps) ≡ 0 and ṡ = γp² ≥ 0: GENERIC with a singular,
+    /// state-dependent metric of degree 2.
+    struct ThermalOscillator;
+    state (q, p, s);
+    poisson = [[0, 1, 0], [-1, 0, 0], [0, 0, 0]];
+    hamiltonian = 0.5 * q^2 + 0.5 * p^2 + 0.5 * s^2;
+    entropy degree 2;
+    metric degree 2;
+    region box(q in [-3, 3], p in [-3, 3], s in [-3, 3]);
+    classical;
+    reference {
+        entropy = s;
+        metric = [[0, 0, 0], [0, 0.2 * s^2, -0.2 * p * s], [0, -0.2 * p * s, 0.2 * p^2]];
+    }
+}
+
+/// A thermodynamic system nobody declared before: the classical form
+/// recovers its field from a cold start, and the identified field conserves
+/// H and produces S. (The same system declared without `classical;` creeps
+/// along a valley of the generalized fit: docs/method.md §3.)
+#[test]
+fn a_thermal_oscillator_is_identified_in_the_classical_form() {
+    use metriplectic::systems::reference_samples;
+    use rand::Rng;
+    let sample = |count, seed| {
+        reference_samples::<ThermalOscillator>(count, seed, |rng| {
+            (0..3).map(|_| rng.random_range(-1.0..1.0)).collect()
+        })
+    };
+    let (train, held_out) = (sample(600, 1), sample(200, 2));
+    let fit = identify::<ThermalOscillator>(&train, &IdentifyConfig::default()).unwrap();
+    let truth = Model::<ThermalOscillator>::reference().unwrap();
+    let score = fit.model.compare(&truth, &held_out).unwrap();
+    assert!(score.relative_error <= 1e-9, "{score:?}");
+    let (entropy, metric) = residuals(&fit.model);
+    assert!(
+        entropy <= 1e-12 && metric <= 1e-12,
+        "{entropy:e} {metric:e}"
+    );
+    let (mut f, mut grad_h, mut grad_s) = (vec![0.0; 3], vec![0.0; 3], vec![0.0; 3]);
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(u, v)| u * v).sum::<f64>();
+    for x in held_out.states().chunks_exact(3) {
+        fit.model.vector_field(x, &mut f).unwrap();
+        ThermalOscillator::hamiltonian_gradient(x, &mut grad_h);
+        ThermalOscillator::entropy_gradient(x, fit.model.entropy_coefficients(), &mut grad_s);
+        let size = dot(&f, &f).sqrt() * dot(&grad_h, &grad_h).sqrt();
+        assert!(
+            dot(&grad_h, &f).abs() <= 1e-12 * size.max(1e-300),
+            "dH/dt at {x:?}"
+        );
+        assert!(
+            dot(&grad_s, &f) >= -1e-12 * size.max(1e-300),
+            "dS/dt at {x:?}"
+        );
+    }
+}
