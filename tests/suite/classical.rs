@@ -24,25 +24,7 @@ fn a_cold_start_identifies_the_classical_body_under_its_constraints() {
         "{entropy:e} {metric:e}"
     );
 
-    // The identified field conserves H and produces S at every held-out state.
-    let n = 3;
-    let (mut f, mut grad_h) = (vec![0.0; n], vec![0.0; n]);
-    for x in held_out.states().chunks_exact(n) {
-        fit.model.vector_field(x, &mut f).unwrap();
-        ClassicalRigidBody::hamiltonian_gradient(x, &mut grad_h);
-        let mut grad_s = vec![0.0; n];
-        ClassicalRigidBody::entropy_gradient(x, fit.model.entropy_coefficients(), &mut grad_s);
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(u, v)| u * v).sum::<f64>();
-        let size = dot(&f, &f).sqrt() * dot(&grad_h, &grad_h).sqrt();
-        assert!(
-            dot(&grad_h, &f).abs() <= 1e-12 * size.max(1e-300),
-            "dH/dt at {x:?}"
-        );
-        assert!(
-            dot(&grad_s, &f) >= -1e-12 * size.max(1e-300),
-            "dS/dt at {x:?}"
-        );
-    }
+    assert_conserves_h_and_produces_s(&fit.model, &held_out);
 
     // The data fix everything but the scale (K, S) ↦ (cK, S/c).
     let report = identifiability(&fit.model, &train, &IdentifiabilityOptions::default()).unwrap();
@@ -54,6 +36,36 @@ fn a_cold_start_identifies_the_classical_body_under_its_constraints() {
         FlatKind::ScaleSymmetry,
         "{report}"
     );
+}
+
+/// The identified field conserves H and produces S at every state of
+/// `data`, to rounding relative to |f|·|∇H|.
+fn assert_conserves_h_and_produces_s<S: MetriplecticSystem>(model: &Model<S>, data: &Dataset) {
+    let n = S::DIM;
+    let (mut f, mut grad_h, mut grad_s) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(u, v)| u * v).sum::<f64>();
+    for x in data.states().chunks_exact(n) {
+        model.vector_field(x, &mut f).unwrap();
+        S::hamiltonian_gradient(x, &mut grad_h);
+        S::entropy_gradient(x, model.entropy_coefficients(), &mut grad_s);
+        let size = dot(&f, &f).sqrt() * dot(&grad_h, &grad_h).sqrt();
+        assert!(
+            dot(&grad_h, &f).abs() <= 1e-12 * size.max(1e-300),
+            "dH/dt at {x:?}"
+        );
+        assert!(
+            dot(&grad_s, &f) >= -1e-12 * size.max(1e-300),
+            "dS/dt at {x:?}"
+        );
+    }
+}
+
+/// `count` states uniform in [−half, half]ⁿ with ẋ from `S`'s reference.
+fn cube_samples<S: MetriplecticSystem>(count: usize, seed: u64, half: f64) -> Dataset {
+    use rand::Rng;
+    metriplectic::systems::reference_samples::<S>(count, seed, |rng| {
+        (0..S::DIM).map(|_| rng.random_range(-half..half)).collect()
+    })
 }
 
 #[test]
@@ -168,14 +180,8 @@ metriplectic! {
 /// start begins at the identity projected onto K∇H ≡ 0.
 #[test]
 fn a_classical_system_without_a_region_starts_from_the_projected_identity() {
-    use metriplectic::systems::reference_samples;
-    use rand::Rng;
-    let sample = |count, seed| {
-        reference_samples::<OscillatorAndInternalVariable>(count, seed, |rng| {
-            (0..3).map(|_| rng.random_range(-1.5..1.5)).collect()
-        })
-    };
-    let (train, held_out) = (sample(300, 1), sample(100, 2));
+    let sample = cube_samples::<OscillatorAndInternalVariable>;
+    let (train, held_out) = (sample(300, 1, 1.5), sample(100, 2, 1.5));
     let fit =
         identify::<OscillatorAndInternalVariable>(&train, &IdentifyConfig::default()).unwrap();
     let truth = Model::<OscillatorAndInternalVariable>::reference().unwrap();
@@ -214,14 +220,8 @@ metriplectic! {
 /// along a valley of the generalized fit: docs/method.md §3.)
 #[test]
 fn a_thermal_oscillator_is_identified_in_the_classical_form() {
-    use metriplectic::systems::reference_samples;
-    use rand::Rng;
-    let sample = |count, seed| {
-        reference_samples::<ThermalOscillator>(count, seed, |rng| {
-            (0..3).map(|_| rng.random_range(-1.0..1.0)).collect()
-        })
-    };
-    let (train, held_out) = (sample(600, 1), sample(200, 2));
+    let sample = cube_samples::<ThermalOscillator>;
+    let (train, held_out) = (sample(600, 1, 1.0), sample(200, 2, 1.0));
     let fit = identify::<ThermalOscillator>(&train, &IdentifyConfig::default()).unwrap();
     let truth = Model::<ThermalOscillator>::reference().unwrap();
     let score = fit.model.compare(&truth, &held_out).unwrap();
@@ -231,20 +231,5 @@ fn a_thermal_oscillator_is_identified_in_the_classical_form() {
         entropy <= 1e-12 && metric <= 1e-12,
         "{entropy:e} {metric:e}"
     );
-    let (mut f, mut grad_h, mut grad_s) = (vec![0.0; 3], vec![0.0; 3], vec![0.0; 3]);
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(u, v)| u * v).sum::<f64>();
-    for x in held_out.states().chunks_exact(3) {
-        fit.model.vector_field(x, &mut f).unwrap();
-        ThermalOscillator::hamiltonian_gradient(x, &mut grad_h);
-        ThermalOscillator::entropy_gradient(x, fit.model.entropy_coefficients(), &mut grad_s);
-        let size = dot(&f, &f).sqrt() * dot(&grad_h, &grad_h).sqrt();
-        assert!(
-            dot(&grad_h, &f).abs() <= 1e-12 * size.max(1e-300),
-            "dH/dt at {x:?}"
-        );
-        assert!(
-            dot(&grad_s, &f) >= -1e-12 * size.max(1e-300),
-            "dS/dt at {x:?}"
-        );
-    }
+    assert_conserves_h_and_produces_s(&fit.model, &held_out);
 }
