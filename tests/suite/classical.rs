@@ -1,7 +1,8 @@
 //! The classical (GENERIC) form end to end: a cold start identifies the
-//! relaxing rigid body under its constraints (S a Casimir, K∇H ≡ 0) so
-//! that H is conserved and S produced by the identified field; models that
-//! break the constraints are refused, and model files record the form.
+//! relaxing rigid body and a thermal oscillator under their constraints
+//! (S a Casimir, K∇H ≡ 0) so that H is conserved and S produced by the
+//! identified field; models that break the constraints are refused, and
+//! model files record the form.
 
 use metriplectic::classical::residuals;
 use metriplectic::systems::{classical_rigid_body_data, ClassicalRigidBody};
