@@ -21,6 +21,7 @@
 //! | `from_csv` | identification from a trajectory CSV, the `from_csv` example's pipeline |
 //! | `region_certificates` | state-dependent metrics certified on a region |
 //! | `oversized_bases` | entropy bases larger than the truth needs |
+//! | `poisson_structures` | Poisson tensors beyond the paper's: se(3)* (a rigid body in a fluid), log-canonical |
 //! | `plot` | figures |
 //! | `classical` | the classical (GENERIC) form: constraints imposed, checked and recorded |
 //! | `start_scale` | the default start's choice of the metric's order of magnitude |
@@ -47,6 +48,7 @@ mod metric_search;
 mod model_files;
 mod oversized_bases;
 mod plot;
+mod poisson_structures;
 mod region_certificates;
 mod reproduction;
 mod reproduction_interrupt;
