@@ -67,6 +67,35 @@ pub(crate) fn gram(a: &DMatrix<f64>) -> DMatrix<f64> {
     out
 }
 
+/// Zᵀ M Z for a symmetric M (both triangles read), symmetric (both
+/// triangles filled): M Z, then the lower triangle of Zᵀ(M Z).
+pub(crate) fn congruence(m: &DMatrix<f64>, z: &DMatrix<f64>) -> DMatrix<f64> {
+    let (w, k) = z.shape();
+    let mut mz = DMatrix::zeros(w, k);
+    faer::linalg::matmul::matmul(
+        view_mut(&mut mz),
+        Accum::Replace,
+        view(m),
+        view(z),
+        1.0,
+        parallelism((w * w * k) as f64),
+    );
+    let mut out = DMatrix::zeros(k, k);
+    faer::linalg::matmul::triangular::matmul(
+        view_mut(&mut out),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        view(z).transpose(),
+        BlockStructure::Rectangular,
+        view(&mz),
+        BlockStructure::Rectangular,
+        1.0,
+        parallelism(w as f64 * (k * k) as f64 / 2.0),
+    );
+    symmetrise_lower(&mut out);
+    out
+}
+
 /// Rows per block of the products with a [`RowMajor`] matrix: a block of a
 /// thousand columns (8 MB) stays in the last-level cache while it is scaled
 /// and multiplied, and a few blocks give every core work.

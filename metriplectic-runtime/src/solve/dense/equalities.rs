@@ -70,6 +70,26 @@ impl Elimination {
         c
     }
 
+    /// The first `rows` rows of Z (c = c₀ + Z y), dense: the map from y to
+    /// the variables a regression of that width reads.
+    pub fn basis(&self, rows: usize) -> DMatrix<f64> {
+        let mut z = DMatrix::zeros(rows, self.dimension());
+        for (column, &j) in self.free.iter().enumerate() {
+            if j < rows {
+                z[(j, column)] = 1.0;
+            }
+        }
+        let offset = self.free.len();
+        for (row, &j) in self.constrained.iter().enumerate() {
+            if j < rows {
+                for c in 0..self.null.ncols() {
+                    z[(j, offset + c)] = self.null[(row, c)];
+                }
+            }
+        }
+        z
+    }
+
     /// M Z for a dense M with one column per variable: M's free columns,
     /// then its constrained columns times the null-space basis.
     pub fn reduce_columns(&self, m: &DMatrix<f64>) -> DMatrix<f64> {

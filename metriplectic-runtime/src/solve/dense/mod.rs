@@ -44,13 +44,15 @@ use equalities::Elimination;
 use side_rows::SideRows;
 
 use crate::error::Result;
-use crate::solve::linalg::RowMajor;
+use crate::solve::linalg::{congruence, RowMajor};
 use crate::solve::{Cone, L1Problem, L1Solution, Regression, SolveStatus, SolverSettings};
 
 /// Problem data after the equalities are eliminated.
 struct Reduced {
     /// r × k regression block on y, by rows.
     a: RowMajor,
+    /// A Z as a product, when forming its Gram matrix through it is cheaper.
+    narrow: Option<Narrow>,
     /// Targets t − A c₀.
     t: DVector<f64>,
     /// Side-cone rows on y: h − G y ∈ K (dense, m × k).
@@ -62,6 +64,37 @@ struct Reduced {
     /// Objective weight w of Σ e.
     weight: f64,
 }
+
+/// The regression block A Z kept as the product of the regression's own
+/// columns and the map Z_w from y to them (the first `width` rows of Z).
+/// A metric search reads its w metric coefficients, but y has a coordinate
+/// for every free Gram entry as well (k ≈ 2w on a six-state region
+/// certificate), so Zᵀ_w (Aᵀ D̃ A) Z_w costs r·w²/2 + w²·k + w·k²/2
+/// multiply-adds where (A Z)ᵀ D̃ (A Z) costs r·k²/2.
+struct Narrow {
+    /// A, r × w, by rows.
+    a: RowMajor,
+    /// Z_w, w × k.
+    map: DMatrix<f64>,
+}
+
+impl Narrow {
+    /// Keeps A's rows and the map when the Gram product through them takes
+    /// at most `NARROW_GAIN` of the multiply-adds of the reduced block's.
+    fn worthwhile(rows: usize, width: usize, k: usize) -> bool {
+        let (r, w, k) = (rows as f64, width as f64, k as f64);
+        r * w * w / 2.0 + w * w * k + w * k * k / 2.0 <= NARROW_GAIN * r * k * k / 2.0
+    }
+
+    /// (A Z)ᵀ diag(d) (A Z).
+    fn weighted_gram(&self, d: &DVector<f64>, buffer: &mut Vec<f64>) -> DMatrix<f64> {
+        congruence(&self.a.weighted_gram(d, buffer), &self.map)
+    }
+}
+
+/// The Gram product goes through [`Narrow`] when that takes at most this
+/// fraction of the multiply-adds (a margin for its two extra products).
+const NARROW_GAIN: f64 = 0.6;
 
 /// Solves `problem` (see the module docs).
 pub(crate) fn solve(problem: &L1Problem, settings: &SolverSettings) -> Result<L1Solution> {
@@ -185,6 +218,10 @@ fn reduce(regression: Regression, split: Split, elimination: &Elimination, weigh
     let a_full = RowMajor::from_rows(r, width, regression.rows);
     let c0 = elimination.c0.rows(0, width).into_owned();
     let t = DVector::from_vec(regression.target) - a_full.mul(&c0);
+    let narrow = (!elimination.is_identity() && Narrow::worthwhile(r, width, k)).then(|| Narrow {
+        a: a_full.clone(),
+        map: elimination.basis(width),
+    });
     let a = if elimination.is_identity() && k == width {
         a_full
     } else {
@@ -199,6 +236,7 @@ fn reduce(regression: Regression, split: Split, elimination: &Elimination, weigh
     let side_rows = SideRows::new(&g, &split.segments);
     Reduced {
         a,
+        narrow,
         t,
         g,
         h,
@@ -335,21 +373,43 @@ pub(crate) mod tests {
             let elimination = equalities::eliminate(&e, &DVector::from_element(1, 1.0), n_vars)
                 .unwrap_or_else(|_| panic!("consistent equalities"));
             let k = elimination.dimension();
-            let mut z = DMatrix::zeros(n_vars, k);
-            for (c, &j) in elimination.free.iter().enumerate() {
-                z[(j, c)] = 1.0;
-            }
-            for (row, &j) in elimination.constrained.iter().enumerate() {
-                for c in 0..elimination.null.ncols() {
-                    z[(j, elimination.free.len() + c)] = elimination.null[(row, c)];
-                }
-            }
-            let expected = &a * z.rows(0, width);
+            let expected = &a * elimination.basis(width);
             let reduced = reduce_regression(regression.rows.clone(), r, width, &elimination);
             assert_eq!((reduced.ncols(), k > width), (k, n_vars > width));
             let got = DMatrix::from_fn(r, k, |i, j| reduced.row(i)[j]);
             assert!((got - expected).amax() < 1e-14, "{n_vars} variables");
         }
+    }
+
+    /// A metric search's shape: the regression reads the first 8 of 30
+    /// variables and equalities tie them to the other 22, so y is wider
+    /// than the regression and the Gram product goes through its columns.
+    #[test]
+    fn the_gram_product_through_the_regression_columns_matches_the_reduced_one() {
+        let (r, width, n_vars) = (300, 8, 30);
+        let mut problem = L1Problem::new(random_regression(r, width, 7), n_vars - width);
+        let e = random_regression(6, n_vars, 11).rows;
+        let entries: Vec<(usize, usize, f64)> = (0..6)
+            .flat_map(|row| (0..n_vars).map(move |j| (row, j)))
+            .zip(e)
+            .map(|((row, j), value)| (row, j, value))
+            .collect();
+        problem
+            .constrain(Cone::Zero(6), entries, vec![0.5; 6])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let reduced = reduced(&problem);
+        let narrow = reduced
+            .narrow
+            .as_ref()
+            .unwrap_or_else(|| panic!("y has 24 coordinates for 8 regression columns"));
+        let weights = DVector::from_fn(r, |i, _| 10f64.powi((i % 7) as i32 - 3));
+        let mut buffer = Vec::new();
+        let through = narrow.weighted_gram(&weights, &mut buffer);
+        let direct = reduced.a.weighted_gram(&weights, &mut buffer);
+        assert_eq!(through.shape(), (24, 24));
+        let error = (&through - &direct).amax() / direct.amax();
+        assert!(error < 1e-13, "relative difference {error:.1e}");
+        assert_eq!(through, through.transpose());
     }
 
     #[test]

@@ -519,7 +519,10 @@ fn schur_complement(
     weights: &DVector<f64>,
     buffer: &mut Vec<f64>,
 ) -> DMatrix<f64> {
-    let mut schur = problem.a.weighted_gram(weights, buffer);
+    let mut schur = match &problem.narrow {
+        Some(narrow) => narrow.weighted_gram(weights, buffer),
+        None => problem.a.weighted_gram(weights, buffer),
+    };
     scaled_g.add_gram(&mut schur);
     schur
 }
