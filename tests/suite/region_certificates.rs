@@ -296,3 +296,30 @@ fn a_metric_certified_on_the_region_only_is_accepted_there_only() {
         other => panic!("{other}"),
     }
 }
+
+#[test]
+fn the_region_check_does_not_depend_on_the_metric_scale() {
+    let entropy = vec![0.0; 5];
+    let scaled = |c: f64, factor: f64| -> Vec<f64> {
+        shrinking_metric::<OnTheBoxOnly>(c)
+            .into_iter()
+            .map(|t| t * factor)
+            .collect()
+    };
+    for factor in [1e-10, 1e-6, 1e6] {
+        // 1 − 8q² < 0 at q = ±0.5 whatever the factor: a metric this small
+        // is still indefinite, and must not pass on the solver's absolute
+        // tolerances.
+        let error = Model::<OnTheBoxOnly>::new(entropy.clone(), scaled(8.0, factor)).unwrap_err();
+        assert!(
+            matches!(
+                error,
+                Error::MetricNotPositive { .. } | Error::MetricNotCertified { .. }
+            ),
+            "factor {factor}: {error}"
+        );
+        // 1 − q² ≥ 0.75 on the box: accepted at every scale.
+        Model::<OnTheBoxOnly>::new(entropy.clone(), scaled(1.0, factor))
+            .unwrap_or_else(|e| panic!("factor {factor}: {e}"));
+    }
+}

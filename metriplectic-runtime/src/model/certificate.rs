@@ -400,8 +400,10 @@ fn certify_on_region<S: MetriplecticSystem>(
             let pair = metric_pair_index(n, j, k);
             for alpha in 0..layout.targets {
                 let row = rhs.len();
+                // Normalised, so that the solver's absolute tolerances are
+                // relative: a tiny indefinite K must not pass as feasible.
                 rhs.push(if alpha < basis {
-                    theta[pair * basis + alpha]
+                    theta[pair * basis + alpha] / scale
                 } else {
                     0.0
                 });
@@ -435,9 +437,9 @@ fn certify_on_region<S: MetriplecticSystem>(
             "the region certificate program could not be built: {error}"
         ));
     }
-    let solution = solve_l1(&problem, &SolverSettings::default())
+    let solution = solve_l1(&problem, &certificate_settings())
         .map_err(|error| format!("the region certificate program failed: {error}"))?;
-    let s = solution.coefficients()[0];
+    let s = solution.coefficients()[0] * scale;
     if solution.status.is_usable() && s <= CERTIFICATE_TOLERANCE * scale {
         Ok(())
     } else {
