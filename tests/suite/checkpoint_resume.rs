@@ -248,6 +248,18 @@ fn resuming_with_other_data_configuration_or_system_is_refused() {
     let err = identify_resume::<Linear2d>(&truncated, &data, &config(None)).unwrap_err();
     assert!(matches!(err, Error::Json { .. }), "{err}");
 
+    // An edited trust radius outside the configuration's bounds is named
+    // as such, not met later as a failed joint step.
+    let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    value["radius"] = serde_json::json!(0.0);
+    let edited = dir.join("edited.json");
+    std::fs::write(&edited, value.to_string()).unwrap();
+    let err = identify_resume::<Linear2d>(&edited, &data, &config(None)).unwrap_err();
+    assert!(
+        matches!(err, Error::CheckpointMismatch { ref reason, .. } if reason.contains("trust radius 0e0 is outside")),
+        "{err}"
+    );
+
     // An absurdly large file is refused before it is read (sparse: no disk).
     let huge = dir.join("huge.json");
     std::fs::File::create(&huge)

@@ -623,3 +623,57 @@ fn blank_files_and_trailing_commas_are_named() {
     );
     assert!(message.contains("trailing comma"), "{message}");
 }
+
+#[test]
+fn sizes_beyond_memory_and_overflowing_estimates_are_errors_not_aborts() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    // Counts a user may type for "as many as possible": refused before any
+    // allocation, naming the setting.
+    for (options, setting) in [
+        (
+            SynthesisOptions {
+                trajectories: usize::MAX,
+                held_out_trajectories: 0,
+                ..synthesis_options(1)
+            },
+            "number of trajectories",
+        ),
+        (
+            SynthesisOptions {
+                times: SampleTimes::LogUniform {
+                    count: usize::MAX,
+                    first: 1e-3,
+                },
+                ..synthesis_options(1)
+            },
+            "log-uniform sample count",
+        ),
+    ] {
+        let error = synthesize(&model, &options).unwrap_err();
+        assert!(error.to_string().contains(setting), "{error}");
+    }
+    // A wrong width is reported as such, whatever `dim` claims.
+    let error = Dataset::from_rows(usize::MAX, &[[0.0]], &[[0.0]]).unwrap_err();
+    assert!(error.to_string().contains("sample 0"), "{error}");
+    // Finite values whose finite difference overflows: an error naming the
+    // sample, not an infinite or NaN derivative.
+    let error = metriplectic_runtime::differentiate(
+        &[0.0, 0.1, 0.2],
+        &[1e308, 0.0, -1e308],
+        &DerivativeMethod::FiniteDifference { order: 2 },
+    )
+    .unwrap_err();
+    assert!(error.to_string().contains("at sample 0"), "{error}");
+}
+
+#[test]
+fn a_state_name_given_twice_is_refused_before_reading() {
+    let error = metriplectic_runtime::read_trajectories_from("t,q\n0,1\n".as_bytes(), &["q", "q"])
+        .unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("`q` is both variable 0 and variable 1"),
+        "{error}"
+    );
+}

@@ -31,6 +31,29 @@ fn minibatch_larger_than_the_data_is_an_error_naming_both_sizes() {
 }
 
 #[test]
+fn held_out_validation_is_for_minibatch_runs_and_says_so() {
+    let data = linear2d_data(40, 43);
+    let held_out = metriplectic_runtime::Validation::HeldOut { fraction: 0.25 };
+    let config = IdentifyConfig {
+        batch_size: None,
+        validation: held_out,
+        ..alternation()
+    };
+    let err = identify::<Linear2d>(&data, &config).unwrap_err();
+    assert!(err.to_string().contains("minibatch runs only"), "{err}");
+    // With a batch it runs, scoring on the 10 held-out samples.
+    let config = IdentifyConfig {
+        batch_size: Some(20),
+        validation: held_out,
+        max_iterations: 2,
+        tolerance: 0.0,
+        ..alternation()
+    };
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    assert_eq!(result.history.iterations.len(), 2);
+}
+
+#[test]
 fn duplicated_samples_weigh_the_cost_and_change_nothing_else() {
     // Documented behaviour: a duplicated sample counts twice in the L1 cost
     // (it is not deduplicated). Duplicating *every* sample doubles the cost

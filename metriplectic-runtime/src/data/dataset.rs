@@ -78,8 +78,10 @@ impl Dataset {
                 derivatives: derivatives.len(),
             });
         }
-        let mut flat_x = Vec::with_capacity(states.len() * dim);
-        let mut flat_d = Vec::with_capacity(states.len() * dim);
+        // Grown as the rows are checked, not reserved from `dim` up front:
+        // a wrong `dim` must be a width error, not a failed allocation.
+        let mut flat_x = Vec::new();
+        let mut flat_d = Vec::new();
         for (sample, (x, d)) in states.iter().zip(derivatives).enumerate() {
             for (what, row, flat) in [
                 ("state", x.as_ref(), &mut flat_x),

@@ -59,6 +59,14 @@ impl Trajectory {
                 "at least one state variable is required".to_owned(),
             ));
         }
+        for (k, name) in names.iter().enumerate() {
+            if let Some(first) = names[..k].iter().position(|other| other == name) {
+                return Err(invalid(
+                    "trajectory state names",
+                    format!("`{name}` is both variable {first} and variable {k}"),
+                ));
+            }
+        }
         if times.is_empty() {
             return Err(invalid(
                 "trajectory",
@@ -160,8 +168,15 @@ impl Trajectory {
         self.derivatives.as_ref().map(|d| &d[k * n..(k + 1) * n])
     }
 
-    /// The time series of state variable `j` (a copy; states are row-major).
+    /// The time series of state variable `j` (a copy; states are
+    /// row-major). Panics if `j >= dim()`, like slice indexing (it used to
+    /// return a later variable's values instead).
     pub fn component(&self, j: usize) -> Vec<f64> {
+        assert!(
+            j < self.dim(),
+            "state variable {j} does not exist: the trajectory has {}",
+            self.dim()
+        );
         self.states
             .iter()
             .skip(j)
@@ -356,6 +371,13 @@ mod tests {
         assert!(err.to_string().contains("variable `p`"), "{err}");
         let err = Trajectory::new(names(), vec![], vec![], None).unwrap_err();
         assert!(err.to_string().contains("at least one sample"), "{err}");
+        let twice = vec!["q".to_owned(), "q".to_owned()];
+        let err = Trajectory::new(twice, vec![0.0], vec![0.0, 1.0], None).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("`q` is both variable 0 and variable 1"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -371,5 +393,13 @@ mod tests {
         let data = traj.to_dataset().unwrap();
         assert_eq!(data.derivative(1), &[7.0, 8.0]);
         assert!(traj.without_derivatives().to_dataset().is_err());
+    }
+
+    #[test]
+    #[should_panic(expected = "state variable 2 does not exist")]
+    fn a_component_beyond_the_state_is_not_a_later_variable() {
+        let traj =
+            Trajectory::new(names(), vec![0.0, 1.0], vec![1.0, 2.0, 3.0, 4.0], None).unwrap();
+        let _ = traj.component(2);
     }
 }

@@ -170,10 +170,17 @@ impl WeakDataset {
             let base = data.states.len() / dim;
             data.states.extend_from_slice(trajectory.states());
             let times = trajectory.times();
-            let mut start = 0;
-            while start + form.window <= times.len() {
+            // Checked: a stride or window near usize::MAX means "one window".
+            let mut start = 0_usize;
+            while start
+                .checked_add(form.window)
+                .is_some_and(|end| end <= times.len())
+            {
                 data.push_window(trajectory, base, start, form)?;
-                start += form.stride;
+                let Some(next) = start.checked_add(form.stride) else {
+                    break;
+                };
+                start = next;
             }
         }
         if data.targets.is_empty() {
@@ -239,7 +246,7 @@ impl WeakDataset {
             let h = right - left;
             // The `count` samples nearest the interval, inside the window.
             let first = (k + 1).saturating_sub(count / 2).min(times.len() - count);
-            let local = LocalPolynomial::new(&times[first..first + count], d, left, h)?;
+            let local = LocalPolynomial::new(&times[first..first + count], d, left)?;
             for &(node, weight) in &rule {
                 let t = left + 0.5 * h * (node + 1.0);
                 let w = 0.5 * h * weight;
@@ -262,6 +269,7 @@ impl WeakDataset {
             ));
         }
         let mut target = vec![0.0; n];
+        let first_weight = self.weights.len();
         for (j, (weight, slope)) in weights.iter().zip(&slopes).enumerate() {
             let x = trajectory.state(start + j);
             let slope = -slope / integral;
@@ -271,6 +279,28 @@ impl WeakDataset {
                 self.samples.push(base + start + j);
                 self.weights.push(weight);
             }
+        }
+        // Σ slope·x overflows for states near f64::MAX, and the weights for
+        // extreme time spacings: say so rather than store inf or NaN.
+        if let Some((component, value)) = target.iter().enumerate().find(|(_, y)| !y.is_finite()) {
+            return Err(invalid(
+                "weak-form target",
+                format!(
+                    "component {component} of the window of samples {start}..={} (t = {a:e} … {b:e}) \
+                     is {value} (states too large for Σ φ′x to be represented)",
+                    start + form.window - 1
+                ),
+            ));
+        }
+        if let Some(value) = self.weights[first_weight..].iter().find(|w| !w.is_finite()) {
+            return Err(invalid(
+                "time spacing",
+                format!(
+                    "the weak-form window of samples {start}..={} (t = {a:e} … {b:e}) has a quadrature \
+                     weight {value}; the times are too close together or too far apart",
+                    start + form.window - 1
+                ),
+            ));
         }
         self.targets.extend(target);
         self.offsets.push(self.samples.len());
@@ -315,8 +345,24 @@ struct LocalPolynomial {
 }
 
 impl LocalPolynomial {
-    fn new(nodes: &[f64], degree: usize, centre: f64, scale: f64) -> Result<Self> {
-        // Centred and scaled abscissae keep the Vandermonde matrix well conditioned.
+    fn new(nodes: &[f64], degree: usize, centre: f64) -> Result<Self> {
+        // Centred abscissae scaled by the farthest node lie in [−1, 1]: the
+        // Vandermonde matrix stays well conditioned and finite however
+        // uneven the spacing (scaling by one interval's length overflowed
+        // when that interval was tiny against the others).
+        let scale = nodes
+            .iter()
+            .fold(0.0_f64, |m, &t| m.max((t - centre).abs()));
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(invalid(
+                "time spacing",
+                format!(
+                    "the samples at t = {:e} … {:e} span {scale:e}, which a local polynomial cannot be fitted over",
+                    nodes.first().copied().unwrap_or(centre),
+                    nodes.last().copied().unwrap_or(centre)
+                ),
+            ));
+        }
         let vandermonde = nalgebra::DMatrix::from_fn(nodes.len(), degree + 1, |r, c| {
             ((nodes[r] - centre) / scale).powi(c as i32)
         });
@@ -607,5 +653,57 @@ mod tests {
             assert!(WeakDataset::from_trajectories(std::slice::from_ref(&traj), &form).is_err());
         }
         assert!(WeakDataset::from_trajectories(&[], &WeakForm::default()).is_err());
+    }
+
+    fn circle(t: Vec<f64>, radius: f64) -> Trajectory {
+        let x = t
+            .iter()
+            .flat_map(|t| [radius * t.cos(), -radius * t.sin()])
+            .collect();
+        Trajectory::new(vec!["q".into(), "p".into()], t, x, None).unwrap()
+    }
+
+    #[test]
+    fn a_stride_or_window_near_the_integer_limit_means_one_window() {
+        let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        let one = WeakDataset::from_trajectories(
+            &[circle(t.clone(), 1.0), circle(t, 1.0)],
+            &WeakForm {
+                stride: usize::MAX,
+                ..WeakForm::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(one.equation_count(), 2);
+        let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        let error = WeakDataset::from_trajectories(
+            &[circle(t, 1.0)],
+            &WeakForm {
+                window: usize::MAX,
+                local_degree: 2,
+                ..WeakForm::default()
+            },
+        )
+        .unwrap_err();
+        assert!(error.to_string().contains("window"), "{error}");
+    }
+
+    #[test]
+    fn extreme_spacings_and_states_give_finite_equations_or_an_error() {
+        // One interval 1e-160 long among intervals of 1: the local
+        // polynomials are scaled by their farthest node, so nothing
+        // overflows and every equation is finite.
+        let mut t = vec![0.0, 1e-160];
+        t.extend((1..30).map(f64::from));
+        let data = WeakDataset::from_trajectories(&[circle(t, 1.0)], &WeakForm::default())
+            .expect("uneven but finite spacing");
+        assert!(data.targets().iter().all(|v| v.is_finite()));
+        assert!(data.weights.iter().all(|v| v.is_finite()));
+        // States near f64::MAX: Σ φ′x overflows, and that is an error
+        // naming the quantity, not an infinite target.
+        let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        let error =
+            WeakDataset::from_trajectories(&[circle(t, 1e308)], &WeakForm::default()).unwrap_err();
+        assert!(error.to_string().contains("weak-form target"), "{error}");
     }
 }

@@ -20,7 +20,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::config::IdentifyConfig;
+use super::config::{IdentifyConfig, IterationScheme};
 use super::cost::Cost;
 use super::history::{History, StopReason};
 use super::state::RunState;
@@ -152,7 +152,10 @@ fn comparable(config: &IdentifyConfig) -> IdentifyConfig {
 /// The largest checkpoint accepted for a run of `max_iterations`: 64 MiB
 /// plus 16 KiB per iteration (a history record takes about 2 KiB).
 fn size_limit(max_iterations: usize) -> u64 {
-    (64 << 20) + (16 << 10) * max_iterations as u64
+    // Saturating: `max_iterations` may be usize::MAX for "no cap".
+    (16_u64 << 10)
+        .saturating_mul(max_iterations as u64)
+        .saturating_add(64 << 20)
 }
 
 /// Saves `state` of a run of system `S` on `data` with `config` to `path`.
@@ -270,6 +273,16 @@ pub(crate) fn load<S: MetriplecticSystem>(
             "trust radius {} is not finite and non-negative",
             file.radius
         )));
+    }
+    // The joint step keeps its radius in [min_radius, max_radius]; an
+    // edited radius outside it would fail the first step far from here.
+    if let IterationScheme::AlternatingThenJoint(trust) = &config.scheme {
+        if !(trust.min_radius..=trust.max_radius).contains(&file.radius) {
+            return Err(mismatch(format!(
+                "trust radius {:e} is outside the configuration's [{:e}, {:e}]",
+                file.radius, trust.min_radius, trust.max_radius
+            )));
+        }
     }
     let model = Model::<S>::new(file.entropy, file.metric)?;
     let best = match file.best {

@@ -146,7 +146,8 @@ pub enum Validation {
     #[default]
     AllData,
     /// A held-out part of the samples, drawn at random (seeded by
-    /// [`IdentifyConfig::seed`]) and never used in a batch.
+    /// [`IdentifyConfig::seed`]) and never used in a batch. Minibatch runs
+    /// only: a full-batch run with it is refused.
     HeldOut {
         /// Fraction of the samples held out, in (0, 1).
         fraction: f64,
@@ -269,6 +270,14 @@ impl IdentifyConfig {
                 return Err(invalid(
                     "validation fraction",
                     format!("{fraction} is not in (0, 1)"),
+                ));
+            }
+            if self.batch_size.is_none() {
+                return Err(invalid(
+                    "validation",
+                    "held-out validation scores minibatch runs only; this run is full-batch \
+                     (batch_size is None) and scores on all the data: use Validation::AllData \
+                     or set a batch size",
                 ));
             }
             if self.held_out(samples) == 0 || self.held_out(samples) == samples {

@@ -36,13 +36,28 @@ use crate::system::{metric_pair_index, MetriplecticSystem};
 /// # Ok::<(), metriplectic_runtime::Error>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(from = "SupportFields")]
 pub struct Support {
     /// Entropy coefficients held at zero (indices into
     /// `ENTROPY_EXPONENTS`), sorted. Default empty.
     entropy_zero: Vec<usize>,
     /// Metric coefficients held at zero (indices into θ), sorted. Default empty.
     metric_zero: Vec<usize>,
+}
+
+/// A support as written in a file: the lists may come unsorted or with
+/// repeats, and the searches look indices up by binary search.
+#[derive(Deserialize, Default)]
+#[serde(default)]
+struct SupportFields {
+    entropy_zero: Vec<usize>,
+    metric_zero: Vec<usize>,
+}
+
+impl From<SupportFields> for Support {
+    fn from(fields: SupportFields) -> Self {
+        Self::full().with_zeros(&fields.entropy_zero, &fields.metric_zero)
+    }
 }
 
 impl Support {
@@ -242,5 +257,28 @@ impl Gauge {
                 format!("metric trace {value} is not a finite positive number"),
             )),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_system::Quadratic2d;
+
+    #[test]
+    fn a_support_read_from_a_file_is_sorted_and_without_repeats() {
+        let read: Support =
+            serde_json::from_str(r#"{"entropy_zero": [4, 2, 4], "metric_zero": [1, 0]}"#).unwrap();
+        assert_eq!(read.entropy_zeros(), &[2, 4]);
+        assert_eq!(read.metric_zeros(), &[0, 1]);
+        // Unsorted, coefficient 4 would have been missed by the binary
+        // search and fitted although the file holds it at zero.
+        assert_eq!(read.free_entropy::<Quadratic2d>(), vec![0, 1, 3]);
+        assert_eq!(read, Support::full().with_zeros(&[2, 4], &[0, 1]));
+        let round_trip: Support =
+            serde_json::from_str(&serde_json::to_string(&read).unwrap()).unwrap();
+        assert_eq!(round_trip, read);
+        let empty: Support = serde_json::from_str("{}").unwrap();
+        assert!(empty.is_full());
     }
 }

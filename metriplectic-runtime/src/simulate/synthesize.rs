@@ -113,7 +113,7 @@ impl InitialStates {
 pub enum SampleTimes {
     /// 0, Δ, 2Δ, … up to the duration.
     Uniform {
-        /// Sampling interval Δ (> 0).
+        /// Sampling interval Δ (> 0; at most 10⁷ samples per trajectory).
         interval: f64,
     },
     /// `count` times drawn independently with log t uniform on
@@ -121,7 +121,7 @@ pub enum SampleTimes {
     /// Dense early, sparse late: covers both the fast transient and the slow
     /// approach to the attractor.
     LogUniform {
-        /// Samples per trajectory (≥ 1).
+        /// Samples per trajectory (1 to 10⁷).
         count: usize,
         /// Earliest possible time (0 < first < duration).
         first: f64,
@@ -178,7 +178,7 @@ pub struct Outliers {
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SynthesisOptions {
-    /// Number of trajectories (≥ 1).
+    /// Number of trajectories (≥ 1; at most 10⁸ samples in all).
     pub trajectories: usize,
     /// Duration of each trajectory (> 0).
     pub duration: f64,
@@ -434,6 +434,13 @@ fn add_noise(data: Dataset, noise: &Noise, rng: &mut ChaCha8Rng) -> Result<Datas
     Ok(Dataset::from_flat(data.dim(), states, derivatives)?)
 }
 
+/// Most samples a synthesised trajectory may have.
+const MAX_SAMPLES_PER_TRAJECTORY: usize = 10_000_000;
+
+/// Most samples all synthesised trajectories together may have: beyond it
+/// the allocation, not the options, would fail.
+const MAX_SAMPLES: usize = 100_000_000;
+
 fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
     if options.trajectories == 0 {
         return Err(invalid(
@@ -465,7 +472,7 @@ fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
                     format!("{interval}: must be finite and > 0"),
                 ));
             }
-            if options.duration / interval > 1e7 {
+            if options.duration / interval > MAX_SAMPLES_PER_TRAJECTORY as f64 {
                 return Err(invalid(
                     "sampling interval",
                     format!("{interval} gives more than 10⁷ samples per trajectory"),
@@ -473,10 +480,10 @@ fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
             }
         }
         SampleTimes::LogUniform { count, first } => {
-            if count == 0 {
+            if count == 0 || count > MAX_SAMPLES_PER_TRAJECTORY {
                 return Err(invalid(
                     "log-uniform sample count",
-                    "must be at least 1".to_owned(),
+                    format!("{count}: must be between 1 and 10⁷"),
                 ));
             }
             if !(first.is_finite() && first > 0.0 && first < options.duration) {
@@ -486,6 +493,20 @@ fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
                 ));
             }
         }
+    }
+    let per_trajectory = match options.times {
+        SampleTimes::Uniform { interval } => (options.duration / interval) as usize + 1,
+        SampleTimes::LogUniform { count, .. } => count,
+    };
+    let total = options.trajectories.saturating_mul(per_trajectory);
+    if total > MAX_SAMPLES {
+        return Err(invalid(
+            "number of trajectories",
+            format!(
+                "{} trajectories of {per_trajectory} samples are {total} samples; at most 10⁸ are synthesised",
+                options.trajectories
+            ),
+        ));
     }
     for (what, std) in [
         ("state noise σ", options.noise.state_std),

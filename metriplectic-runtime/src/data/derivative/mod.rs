@@ -196,11 +196,29 @@ pub fn differentiate(times: &[f64], values: &[f64], method: &DerivativeMethod) -
     (0..times.len())
         .map(|i| {
             let (start, weights) = stencil(times, i, method)?;
-            Ok(weights
+            let estimate: f64 = weights
                 .iter()
                 .zip(&values[start..])
                 .map(|(w, v)| w * v)
-                .sum())
+                .sum();
+            if estimate.is_finite() {
+                Ok(estimate)
+            } else {
+                // Values near f64::MAX, or times so close that the weights
+                // overflow: the finite difference is not representable.
+                Err(invalid(
+                    "derivative estimate",
+                    format!(
+                        "at sample {i} (t = {:e}) the finite difference is {estimate}: the values \
+                         (up to {:e} there) are too large for their time spacing",
+                        times[i],
+                        values[start..]
+                            .iter()
+                            .take(weights.len())
+                            .fold(0.0_f64, |m, v| m.max(v.abs()))
+                    ),
+                ))
+            }
         })
         .collect()
 }
