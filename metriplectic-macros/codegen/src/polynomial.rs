@@ -174,22 +174,36 @@ impl Rational {
         if int_part.is_empty() && frac_part.is_empty() {
             return Ok(None);
         }
-        let mut num: i128 = 0;
+        let mut digits = Vec::with_capacity(int_part.len() + frac_part.len());
         for c in int_part.chars().chain(frac_part.chars()) {
             let Some(d) = c.to_digit(10) else {
                 return Ok(None);
             };
-            num = num
-                .checked_mul(10)
-                .and_then(|n| n.checked_add(i128::from(d)))
-                .ok_or(Overflow)?;
+            digits.push(d);
         }
-        let Some(scale) = i64::try_from(frac_part.len())
+        let Some(mut scale) = i64::try_from(frac_part.len())
             .ok()
             .and_then(|digits| exponent.checked_sub(digits))
         else {
             return Err(Overflow);
         };
+        // Trailing zeros move into the exponent, so that `1.000…0` with 40
+        // digits or `0e400` is not an overflow: only values that are not
+        // representable are.
+        while digits.last() == Some(&0) {
+            digits.pop();
+            scale = scale.checked_add(1).ok_or(Overflow)?;
+        }
+        if digits.is_empty() {
+            return Ok(Some(Rational::ZERO));
+        }
+        let mut num: i128 = 0;
+        for d in digits {
+            num = num
+                .checked_mul(10)
+                .and_then(|n| n.checked_add(i128::from(d)))
+                .ok_or(Overflow)?;
+        }
         let power =
             Rational::integer(10).pow(scale.unsigned_abs().try_into().map_err(|_| Overflow)?)?;
         let value = Rational::integer(num);
@@ -438,7 +452,26 @@ impl Polynomial {
     /// Human-readable form with the given variable names, in DSL syntax
     /// (`0.5*p^2 + q`), terms ordered by degree then graded-lex.
     pub fn display<'a>(&'a self, names: &'a [String]) -> PolynomialDisplay<'a> {
-        PolynomialDisplay { poly: self, names }
+        PolynomialDisplay {
+            poly: self,
+            names,
+            limit: usize::MAX,
+        }
+    }
+
+    /// As [`display`](Self::display), but only the first `limit` terms (in
+    /// graded order) and a count of the others: for error messages, which
+    /// must stay readable when the polynomial has thousands of terms.
+    pub fn display_at_most<'a>(
+        &'a self,
+        names: &'a [String],
+        limit: usize,
+    ) -> PolynomialDisplay<'a> {
+        PolynomialDisplay {
+            poly: self,
+            names,
+            limit,
+        }
     }
 }
 
@@ -446,6 +479,7 @@ impl Polynomial {
 pub struct PolynomialDisplay<'a> {
     poly: &'a Polynomial,
     names: &'a [String],
+    limit: usize,
 }
 
 impl fmt::Display for PolynomialDisplay<'_> {
@@ -455,7 +489,8 @@ impl fmt::Display for PolynomialDisplay<'_> {
         }
         let mut terms: Vec<_> = self.poly.terms().collect();
         terms.sort_by(|(a, _), (b, _)| crate::bases::graded_lex_cmp(a, b));
-        for (i, (e, c)) in terms.iter().enumerate() {
+        let hidden = terms.len().saturating_sub(self.limit);
+        for (i, (e, c)) in terms.iter().take(self.limit).enumerate() {
             let negative = c.numerator() < 0;
             let magnitude = if negative {
                 Rational::new(-c.numerator(), c.denominator())
@@ -490,6 +525,9 @@ impl fmt::Display for PolynomialDisplay<'_> {
             } else {
                 write!(f, "{magnitude}*{}", factors.join("*"))?;
             }
+        }
+        if hidden > 0 {
+            write!(f, " + … ({hidden} more terms)")?;
         }
         Ok(())
     }
@@ -545,6 +583,17 @@ mod tests {
             Rational::parse_decimal("1.5e-9223372036854775808"),
             Err(Overflow)
         );
+        // Zeros are not digits to carry: these are small, or zero, and
+        // representable.
+        assert_eq!(p("0e400"), Rational::ZERO);
+        assert_eq!(p("0.000"), Rational::ZERO);
+        let long_one = format!("1.{}", "0".repeat(60));
+        assert_eq!(p(&long_one), Rational::ONE);
+        let quarter = format!("25{}e-60", "0".repeat(58));
+        assert_eq!(p(&quarter), r(1, 4));
+        assert_eq!(p("1000e-3"), Rational::ONE);
+        // …but a denominator of 10³⁹ is not.
+        assert_eq!(Rational::parse_decimal("1e-39"), Err(Overflow));
     }
 
     #[test]

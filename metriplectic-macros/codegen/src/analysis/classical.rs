@@ -18,6 +18,7 @@ use proc_macro2::Span;
 use super::elimination::{self, Echelon, Failure, Row};
 use super::reference::ReferenceModel;
 use super::region::ball_example;
+use super::work::{product, MAX_TERM_PRODUCTS, SHOWN_TERMS};
 use crate::bases::Bases;
 use crate::diagnostics::Diagnostics;
 use crate::parse::{Expr, Reference, SpanRange};
@@ -70,8 +71,9 @@ pub fn derive(
                     .to_string()
             }
             Failure::TooLarge => format!(
-                "it needs more than {BUDGET} rational operations; lower the entropy or the \
-                 metric degree"
+                "it needs more than {BUDGET} rational operations or {MAX_TERM_PRODUCTS} products \
+                 of terms; lower the entropy or the metric degree, or write Π and H with fewer \
+                 terms"
             ),
         };
         syn::Error::new(
@@ -132,6 +134,22 @@ fn entropy_constraints(inputs: &Inputs) -> Result<EntropySide, Failure> {
     let n = inputs.names.len();
     let bases = inputs.bases;
     let features = &bases.monomials[1..=bases.entropy_len];
+    // ∂ⱼφₖ is one term, non-zero for the variables φₖ contains, and it
+    // multiplies column j of Π: count the products before making them.
+    let column_terms: Vec<u64> = (0..n)
+        .map(|j| {
+            (0..n)
+                .map(|i| inputs.poisson[i * n + j].term_count() as u64)
+                .sum()
+        })
+        .collect();
+    let work = features.iter().fold(0_u64, |sum, e| {
+        e.iter()
+            .zip(&column_terms)
+            .filter(|(k, _)| **k > 0)
+            .fold(sum, |sum, (_, t)| sum.saturating_add(*t))
+    });
+    within_budget(work)?;
     // (component i, monomial α) → the equation's row over ψ.
     let mut equations: BTreeMap<(usize, Vec<u32>), Row> = BTreeMap::new();
     for (k, e) in features.iter().enumerate() {
@@ -189,9 +207,22 @@ struct MetricSide {
 
 /// Rows of K(x; θ)∇H(x) ≡ 0 over the metric basis `[..len]` (θ laid out by
 /// pairs j ≤ k, each a block of `stride` coefficients).
-fn metric_rows(inputs: &Inputs, len: usize, stride: usize) -> Vec<Row> {
+fn metric_rows(inputs: &Inputs, len: usize, stride: usize) -> Result<Vec<Row>, Failure> {
     let n = inputs.names.len();
     let monomials = &inputs.bases.monomials[..len];
+    // Each θ coefficient inserts the terms of one or two components of ∇H.
+    let gradient_terms: Vec<u64> = inputs
+        .hamiltonian_gradient
+        .iter()
+        .map(|g| g.term_count() as u64)
+        .collect();
+    let per_monomial = (0..n).fold(0_u64, |sum, j| {
+        (j..n).fold(sum, |sum, k| {
+            let both = if j == k { 0 } else { gradient_terms[j] };
+            sum.saturating_add(gradient_terms[k] + both)
+        })
+    });
+    within_budget(per_monomial.saturating_mul(len as u64))?;
     let mut equations: BTreeMap<(usize, Vec<u32>), Row> = BTreeMap::new();
     let mut pair = 0;
     for j in 0..n {
@@ -210,14 +241,24 @@ fn metric_rows(inputs: &Inputs, len: usize, stride: usize) -> Vec<Row> {
             pair += 1;
         }
     }
-    equations.into_values().collect()
+    Ok(equations.into_values().collect())
+}
+
+/// `Failure::TooLarge` when assembling the equations would make more than
+/// the budget's products of terms (checked before they are made).
+fn within_budget(work: u64) -> Result<(), Failure> {
+    if work > MAX_TERM_PRODUCTS {
+        Err(Failure::TooLarge)
+    } else {
+        Ok(())
+    }
 }
 
 fn metric_constraints(inputs: &Inputs) -> Result<MetricSide, Failure> {
     let n = inputs.names.len();
     let m = inputs.bases.metric_len;
     let pairs = n * (n + 1) / 2;
-    let echelon = eliminate(metric_rows(inputs, m, m))?;
+    let echelon = eliminate(metric_rows(inputs, m, m)?)?;
     let constraints = echelon
         .rows()
         .map(elimination::scale_to_unit)
@@ -227,7 +268,7 @@ fn metric_constraints(inputs: &Inputs) -> Result<MetricSide, Failure> {
     let admissible = if inputs.region {
         echelon.rank() < pairs * m
     } else {
-        eliminate(metric_rows(inputs, 1.min(m), 1))?.rank() < pairs
+        eliminate(metric_rows(inputs, 1.min(m), 1)?)?.rank() < pairs
     };
     Ok(MetricSide {
         constraints,
@@ -305,7 +346,10 @@ fn no_metric_reason(inputs: &Inputs) -> String {
 
 /// `(a, b, …)` with the polynomials in DSL syntax.
 pub fn vector_text(polys: &[Polynomial], names: &[String]) -> String {
-    let parts: Vec<String> = polys.iter().map(|p| p.display(names).to_string()).collect();
+    let parts: Vec<String> = polys
+        .iter()
+        .map(|p| p.display_at_most(names, SHOWN_TERMS).to_string())
+        .collect();
     format!("({})", parts.join(", "))
 }
 
@@ -336,6 +380,12 @@ fn apply(
     vector: &[Polynomial],
     n: usize,
 ) -> Result<Option<Vec<Polynomial>>, Failure> {
+    let work = (0..n).fold(0_u64, |sum, i| {
+        vector.iter().enumerate().fold(sum, |sum, (j, v)| {
+            sum.saturating_add(product(&matrix[i * n + j], v))
+        })
+    });
+    within_budget(work)?;
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
         let mut sum = Polynomial::zero(n);
@@ -366,10 +416,18 @@ pub fn check_reference(
         .metric
         .as_ref()
         .map_or(SpanRange::single(keyword), |m| SpanRange::single(m.span));
-    let exactly = |span: SpanRange, what: &str| {
+    let exactly = |span: SpanRange, what: &str, failure: Failure| {
+        let why = match failure {
+            Failure::Overflow => {
+                "128-bit rational arithmetic overflowed; use smaller coefficients".to_string()
+            }
+            Failure::TooLarge => format!(
+                "it needs more than {MAX_TERM_PRODUCTS} products of terms; write it with fewer \
+                 terms"
+            ),
+        };
         span.error(format!(
-            "could not check exactly that the reference {what} fits the classical form: 128-bit \
-             rational arithmetic overflowed; use smaller coefficients"
+            "could not check exactly that the reference {what} fits the classical form: {why}"
         ))
     };
     match casimir_defect(inputs.poisson, &reference.entropy, n) {
@@ -380,7 +438,7 @@ pub fn check_reference(
             vector_text(&defect, names),
             casimir_hint(inputs)
         ))),
-        Err(_) => diagnostics.push(exactly(entropy_span, "entropy")),
+        Err(failure) => diagnostics.push(exactly(entropy_span, "entropy", failure)),
     }
     match degeneracy_defect(&reference.metric, inputs.hamiltonian_gradient, n) {
         Ok(None) => {}
@@ -391,7 +449,7 @@ pub fn check_reference(
             vector_text(&defect, names),
             vector_text(inputs.hamiltonian_gradient, names)
         ))),
-        Err(_) => diagnostics.push(exactly(metric_span, "metric")),
+        Err(failure) => diagnostics.push(exactly(metric_span, "metric", failure)),
     }
 }
 
@@ -404,7 +462,7 @@ fn casimir_hint(inputs: &Inputs) -> String {
                 .casimirs
                 .iter()
                 .take(2)
-                .map(|c| format!("`{}`", c.display(inputs.names)))
+                .map(|c| format!("`{}`", c.display_at_most(inputs.names, SHOWN_TERMS)))
                 .collect();
             shown.join(", ")
         }

@@ -17,6 +17,7 @@ mod poisson;
 mod reference;
 mod region;
 mod scope;
+mod work;
 
 use proc_macro2::Ident;
 use syn::{Attribute, Visibility};

@@ -2,6 +2,7 @@
 //! identity, both decided exactly.
 
 use super::scope::exact;
+use super::work::{product, MAX_TERM_PRODUCTS, SHOWN_TERMS};
 use crate::diagnostics::Diagnostics;
 use crate::parse::{Matrix, SpanRange};
 use crate::polynomial::{Overflow, Polynomial};
@@ -24,7 +25,7 @@ pub fn check_skew(
                 "Π must be skew-symmetric, so its diagonal is zero: Π[{i}][{i}] (row and column \
                  `{}`) is `{}`; write 0",
                 names[i],
-                diagonal.display(names)
+                diagonal.display_at_most(names, SHOWN_TERMS)
             )));
         }
         for j in i + 1..n {
@@ -47,9 +48,9 @@ pub fn check_skew(
                  Π[{j}][{i}] is `{}`; write Π[{j}][{i}] = `{}`",
                 names[i],
                 names[j],
-                upper.display(names),
-                lower.display(names),
-                negated.display(names)
+                upper.display_at_most(names, SHOWN_TERMS),
+                lower.display_at_most(names, SHOWN_TERMS),
+                negated.display_at_most(names, SHOWN_TERMS)
             )));
         }
     }
@@ -74,6 +75,24 @@ pub fn jacobiator(
     Ok(sum)
 }
 
+/// Term products of every Jacobiator with i < j < k
+/// (`derivatives[l][b * n + c]` = ∂_l Π_bc).
+fn jacobi_work(poisson: &[Polynomial], derivatives: &[Vec<Polynomial>], n: usize) -> u64 {
+    let mut work = 0_u64;
+    for i in 0..n {
+        for j in i + 1..n {
+            for k in j + 1..n {
+                for (a, b, c) in [(i, j, k), (j, k, i), (k, i, j)] {
+                    for (l, d) in derivatives.iter().enumerate() {
+                        work = work.saturating_add(product(&poisson[a * n + l], &d[b * n + c]));
+                    }
+                }
+            }
+        }
+    }
+    work
+}
+
 /// Checks the Jacobi identity exactly for a skew Π, reporting the first
 /// violation (one is enough to show Π is not a Poisson tensor).
 pub fn check_jacobi(
@@ -95,6 +114,20 @@ pub fn check_jacobi(
     let Some(derivatives) = exact(derivatives, span, diagnostics) else {
         return;
     };
+    let work = jacobi_work(poisson, &derivatives, n);
+    if work > MAX_TERM_PRODUCTS {
+        let largest = poisson
+            .iter()
+            .map(Polynomial::term_count)
+            .max()
+            .unwrap_or(0);
+        diagnostics.push(span.error(format!(
+            "checking the Jacobi identity exactly would take {work} products of terms, more \
+             than the {MAX_TERM_PRODUCTS} supported (Π's largest entry has {largest} terms); \
+             write Π with fewer terms"
+        )));
+        return;
+    }
     // For skew Π the Jacobiator is totally antisymmetric: i < j < k suffices.
     for i in 0..n {
         for j in i + 1..n {
@@ -113,7 +146,7 @@ pub fn check_jacobi(
                         names[i],
                         names[j],
                         names[k],
-                        value.display(names)
+                        value.display_at_most(names, SHOWN_TERMS)
                     )));
                     return;
                 }

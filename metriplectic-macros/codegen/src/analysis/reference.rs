@@ -4,6 +4,7 @@
 
 use super::definiteness::{self, Definiteness};
 use super::scope::{Context, Scope};
+use super::work::SHOWN_TERMS;
 use crate::bases::Bases;
 use crate::diagnostics::Diagnostics;
 use crate::parse::{Matrix, Reference, SpanRange};
@@ -118,8 +119,8 @@ fn check_metric(
                          in both",
                         names[i],
                         names[j],
-                        entry.display(names),
-                        metric[j * n + i].display(names)
+                        entry.display_at_most(names, SHOWN_TERMS),
+                        metric[j * n + i].display_at_most(names, SHOWN_TERMS)
                     ),
                 ));
             }

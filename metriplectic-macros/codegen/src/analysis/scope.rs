@@ -269,7 +269,7 @@ impl Scope {
                                 "dividing by `{}`, which depends on the state, is not polynomial; \
                                  only constant denominators are allowed (multiply through, \
                                  or write a constant like `1/m`)",
-                                b.display(&self.state_names)
+                                b.display_at_most(&self.state_names, super::work::SHOWN_TERMS)
                             )));
                             return None;
                         };
