@@ -132,7 +132,10 @@ impl std::fmt::Display for Identifiability {
             "not identifiable: the data determine {} of {} coefficient combinations; undetermined:",
             self.rank, self.unknowns
         )?;
-        for direction in &self.flat_directions {
+        // A large basis can have dozens of flat directions, each a
+        // polynomial per block: the text shows the first few, abbreviated;
+        // `flat_directions` keeps them whole.
+        for direction in self.flat_directions.iter().take(SHOWN_DIRECTIONS) {
             let name = match direction.kind {
                 FlatKind::ScaleSymmetry => {
                     "scale symmetry K -> cK with E/c (Π∇E = 0 on the data) or S/c (classical form)"
@@ -142,11 +145,36 @@ impl std::fmt::Display for Identifiability {
             writeln!(
                 f,
                 "  - {name} (singular value {:.2e}): {}",
-                direction.singular_value, direction.description
+                direction.singular_value,
+                abbreviate(&direction.description, SHOWN_CHARACTERS)
             )?;
+        }
+        if let Some(hidden) = self.flat_directions.len().checked_sub(SHOWN_DIRECTIONS) {
+            if hidden > 0 {
+                writeln!(f, "  - … and {hidden} more (all in `flat_directions`)")?;
+            }
         }
         Ok(())
     }
+}
+
+/// Flat directions shown by the report's text.
+const SHOWN_DIRECTIONS: usize = 5;
+
+/// Characters of a direction's description shown by the report's text.
+const SHOWN_CHARACTERS: usize = 400;
+
+/// `text` cut after at most `limit` characters, at a space, with " …".
+fn abbreviate(text: &str, limit: usize) -> std::borrow::Cow<'_, str> {
+    if text.chars().count() <= limit {
+        return text.into();
+    }
+    let end = text
+        .char_indices()
+        .nth(limit)
+        .map_or(text.len(), |(i, _)| i);
+    let cut = text[..end].rfind(' ').unwrap_or(end);
+    format!("{} …", &text[..cut]).into()
 }
 
 /// The identifiability report of `model` on `data`: the singular values of
@@ -495,6 +523,45 @@ fn norm(v: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_text_of_many_long_directions_is_abbreviated_and_counts_the_rest() {
+        let long = (0..200)
+            .map(|k| format!("+ {k}.5 x^{k}"))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let direction = FlatDirection {
+            kind: FlatKind::Data,
+            singular_value: 1e-14,
+            entropy: vec![1.0],
+            metric: vec![],
+            description: format!("δS ∝ {long}"),
+        };
+        let report = Identifiability {
+            unknowns: 40,
+            rank: 32,
+            singular_values: vec![1.0; 40],
+            scale_symmetry: false,
+            gauge_fixed: false,
+            flat_directions: vec![direction; 8],
+        };
+        let text = report.to_string();
+        assert_eq!(
+            text.matches("not determined by these data").count(),
+            5,
+            "{text}"
+        );
+        assert!(
+            text.contains("… and 3 more (all in `flat_directions`)"),
+            "{text}"
+        );
+        // Each shown line stops at a space within its limit.
+        for line in text.lines().filter(|l| l.contains("δS")) {
+            assert!(line.ends_with(" …") && line.chars().count() < 500, "{line}");
+        }
+        assert_eq!(abbreviate("short", 400), "short");
+        assert_eq!(abbreviate("ab cd ef", 5), "ab …");
+    }
 
     #[test]
     fn the_complement_is_orthonormal_and_orthogonal_to_the_vector() {
