@@ -505,10 +505,16 @@ pub fn run_until<S: MetriplecticSystem>(
 
 /// Refuses a non-empty directory unless `force`; creates it otherwise.
 fn prepare_output_dir(out: &Path, force: bool) -> Result<(), ReproductionError> {
-    if let Ok(mut entries) = fs::read_dir(out) {
-        if entries.next().is_some() && !force {
-            return Err(ReproductionError::OutputNotEmpty(out.to_owned()));
+    match fs::read_dir(out) {
+        Ok(mut entries) => {
+            if entries.next().is_some() && !force {
+                return Err(ReproductionError::OutputNotEmpty(out.to_owned()));
+            }
         }
+        Err(error) if error.kind() == std::io::ErrorKind::NotFound => {}
+        // A directory that cannot be listed may hold files the run would
+        // overwrite: say so rather than treat it as empty.
+        Err(error) => return Err(io_error(out)(error)),
     }
     fs::create_dir_all(out).map_err(io_error(out))
 }

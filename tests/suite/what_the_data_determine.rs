@@ -355,3 +355,64 @@ fn noisy_2d_data_give_the_true_sparse_equations_with_intervals_and_degree() {
     assert_eq!(summary.true_coefficients_covered, 8, "{summary:?}");
     assert_eq!(summary.selected_entropy_degree, 8, "{summary:?}");
 }
+
+/// The analyses check their inputs before any work: the dataset's width
+/// (a panic inside the generated code before), the replicate count (a
+/// capacity overflow before), and a start above the degree caps (refused
+/// for every capped candidate before; now zeroed there, as a refit from
+/// the dense model is).
+#[test]
+fn the_analyses_check_their_inputs_and_fit_their_starts_to_each_support() {
+    let sample = |count, seed| {
+        reference_samples::<DuffingDegree8>(count, seed, |rng| {
+            (0..2).map(|_| rng.random_range(-1.5..1.5)).collect()
+        })
+    };
+    let (train, validation) = (sample(300, 31), sample(150, 32));
+    let dense = Model::<DuffingDegree8>::reference().unwrap();
+    let wide = Dataset::from_rows(3, &[[0.1, 0.2, 0.3]], &[[0.0, 0.0, 0.0]]).unwrap();
+    let error = metriplectic_runtime::sparsify(
+        &dense,
+        &wide,
+        &validation,
+        &IdentifyConfig::default(),
+        &metriplectic_runtime::SparseOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(error, Error::DimensionMismatch { .. }), "{error}");
+
+    let groups = vec![train.clone(), validation.clone()];
+    let options = BootstrapOptions {
+        replicates: usize::MAX,
+        ..BootstrapOptions::default()
+    };
+    let error =
+        bootstrap::<DuffingDegree8, _>(&groups, &IdentifyConfig::default(), &options).unwrap_err();
+    assert!(error.to_string().contains("at most 100000"), "{error}");
+
+    // The true entropy plus a degree-6 term as the start: every cap below 6
+    // holds that term at zero.
+    let mut start = dense.entropy_coefficients().to_vec();
+    let x6 = DuffingDegree8::ENTROPY_EXPONENTS
+        .iter()
+        .position(|e| e == &[6, 0])
+        .unwrap();
+    start[x6] = 0.01;
+    let config = IdentifyConfig {
+        initial_entropy: Some(start),
+        ..IdentifyConfig::default()
+    };
+    let options = DegreeOptions {
+        entropy: Some(vec![2, 4]),
+        ..DegreeOptions::default()
+    };
+    let selection =
+        select_degrees::<DuffingDegree8, _>(&train, &validation, &config, &options).unwrap();
+    let chosen = &selection.candidates[selection.chosen];
+    assert_eq!(chosen.entropy_degree, 4, "{:#?}", selection.candidates);
+    assert!(
+        chosen.validation.per_component < 1e-8,
+        "{:#?}",
+        selection.candidates
+    );
+}

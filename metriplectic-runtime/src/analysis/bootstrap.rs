@@ -24,7 +24,7 @@ use crate::system::MetriplecticSystem;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct BootstrapOptions {
-    /// Number of replicates. Default 50.
+    /// Number of replicates, 2 to 100 000. Default 50.
     pub replicates: usize,
     /// Coverage of the intervals, in (0, 1). Default 0.95.
     pub level: f64,
@@ -92,6 +92,10 @@ impl<S: MetriplecticSystem> Bootstrap<S> {
     }
 }
 
+/// Most replicates a bootstrap runs: each is a whole identification, and
+/// the results are collected before the intervals are formed.
+const MAX_REPLICATES: usize = 100_000;
+
 /// Identifies `S` on `groups.len()` groups drawn with replacement from
 /// `groups` (e.g. one dataset per trajectory), `options.replicates` times,
 /// and returns percentile intervals of the coefficients.
@@ -111,11 +115,12 @@ pub fn bootstrap<S: MetriplecticSystem, D: IdentificationData>(
             format!("{} given; resampling needs at least 2", groups.len()),
         ));
     }
-    if options.replicates < 2 {
+    if !(2..=MAX_REPLICATES).contains(&options.replicates) {
         return Err(invalid(
             "bootstrap replicates",
             format!(
-                "{} requested; intervals need at least 2",
+                "{} requested; intervals need at least 2, and at most {MAX_REPLICATES} are run \
+                 (each is a whole identification)",
                 options.replicates
             ),
         ));

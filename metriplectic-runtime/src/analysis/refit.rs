@@ -4,7 +4,7 @@
 use crate::data::IdentificationData;
 use crate::error::Result;
 use crate::identify::{identify, model_cost, Cost, IdentifyConfig, Support};
-use crate::model::Model;
+use crate::model::{check_entropy, Model};
 use crate::system::MetriplecticSystem;
 
 /// A model fitted on a support and its validation cost.
@@ -14,9 +14,9 @@ pub(crate) struct Refit<S: MetriplecticSystem> {
 }
 
 /// Identifies on `train` with `config` restricted to `support` (joined with
-/// the config's own), from `start` with the coefficients outside the
-/// support set to zero (`None`: the config's start), and scores the result
-/// on `validation`.
+/// the config's own), from `start` (`None`: the config's start) with the
+/// coefficients outside the support set to zero, and scores the result on
+/// `validation`.
 pub(crate) fn refit<S: MetriplecticSystem>(
     train: &impl IdentificationData,
     validation: &impl IdentificationData,
@@ -30,17 +30,35 @@ pub(crate) fn refit<S: MetriplecticSystem>(
         .clone()
         .with_zeros(support.entropy_zeros(), support.metric_zeros());
     let mut restricted = config.clone();
-    if let Some(start) = start {
-        let mut entropy = start.entropy_coefficients().to_vec();
-        support
-            .entropy_zeros()
-            .iter()
-            .for_each(|&k| entropy[k] = 0.0);
-        restricted.initial_entropy = Some(entropy);
-        if support.metric_zeros().is_empty() {
-            restricted.initial_metric = Some(start.metric_coefficients().to_vec());
+    let (entropy, metric) = match start {
+        Some(start) => (
+            Some(start.entropy_coefficients()),
+            Some(start.metric_coefficients()),
+        ),
+        None => (
+            config.initial_entropy.as_deref(),
+            config.initial_metric.as_deref(),
+        ),
+    };
+    // The start must lie in the support: entropy coefficients outside it
+    // are zeroed, but only where that keeps S admissible (a classical
+    // system's Casimir rows tie terms together); a metric is kept only if
+    // it already is zero there (zeroing could make it indefinite).
+    // Otherwise the search starts from the library's default.
+    restricted.initial_entropy = entropy.and_then(|entropy| {
+        let mut entropy = entropy.to_vec();
+        for &k in support.entropy_zeros() {
+            if let Some(c) = entropy.get_mut(k) {
+                *c = 0.0;
+            }
         }
-    }
+        check_entropy::<S>("refit start", &entropy)
+            .is_ok()
+            .then_some(entropy)
+    });
+    restricted.initial_metric = metric
+        .filter(|metric| support.check_model("refit start", &[], metric).is_ok())
+        .map(<[f64]>::to_vec);
     restricted.search.support = support;
     let model = identify::<S>(train, &restricted)?.model;
     let validation = model_cost(&model, validation)?;

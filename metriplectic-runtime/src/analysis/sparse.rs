@@ -93,6 +93,9 @@ pub fn sparsify<S: MetriplecticSystem, D: IdentificationData>(
             format!("{} is not a finite non-negative number", options.parsimony),
         ));
     }
+    // Before the term effects evaluate the system on every sample.
+    crate::data::check_dataset::<S>(train)?;
+    crate::data::check_dataset::<S>(validation)?;
     let effects = term_effects(dense, train)?;
     let largest = effects.iter().fold(0.0_f64, |m, e| m.max(*e));
     let base = config.search.support.clone();

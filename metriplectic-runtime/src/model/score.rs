@@ -31,12 +31,15 @@ use crate::system::MetriplecticSystem;
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Score {
-    /// ‖prediction − target‖₂ / ‖target‖₂.
+    /// ‖prediction − target‖₂ / ‖target‖₂. Undefined when every target
+    /// is zero: NaN for an exact fit there, +∞ otherwise.
     pub relative_error: f64,
     /// Mean |prediction − target| per component.
     pub mean_abs_residual: f64,
     /// 1 − Σ(target − prediction)² / Σ(target − mean target)², the mean
-    /// taken per state component (1 is a perfect fit).
+    /// taken per state component (1 is a perfect fit). Undefined when the
+    /// targets do not vary (e.g. a single equation): NaN for an exact fit
+    /// there, −∞ otherwise.
     pub r_squared: f64,
     /// Number of equations (samples or weak-form windows) scored.
     pub equations: usize,

@@ -26,9 +26,11 @@ use crate::error::{invalid, Result, SimulationError};
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct IntegratorOptions {
-    /// Relative tolerance of the local error estimate (> 0).
+    /// Relative tolerance of the local error estimate, in [1e-14, 1);
+    /// 1e-6 by default.
     pub rtol: f64,
-    /// Absolute tolerance of the local error estimate (> 0).
+    /// Absolute tolerance of the local error estimate (> 0); 1e-9 by
+    /// default.
     pub atol: f64,
     /// Maximal number of step attempts (accepted and rejected).
     pub max_steps: u32,
@@ -401,6 +403,17 @@ fn validate_tolerances(options: &IntegratorOptions) -> Result<()> {
             format!("{}: below 1e-14 no step can meet it in f64", options.rtol),
         ));
     }
+    // The free-energy check allows for the integration error, so an error
+    // control this loose would let a falling E pass it.
+    if options.rtol >= 1.0 {
+        return Err(invalid(
+            "rtol",
+            format!(
+                "{}: a relative error of 100% or more is no error control",
+                options.rtol
+            ),
+        ));
+    }
     if options.max_steps == 0 {
         return Err(invalid("max_steps", "must be at least 1".to_owned()));
     }
@@ -568,6 +581,8 @@ mod tests {
         assert!(run(1.0, 0.0, d(), OutputTimes::Steps).contains("t0 < t_end"));
         let o = IntegratorOptions { rtol: 0.0, ..d() };
         assert!(run(0.0, 1.0, o, OutputTimes::Steps).contains("rtol"));
+        let o = IntegratorOptions { rtol: 1.0, ..d() };
+        assert!(run(0.0, 1.0, o, OutputTimes::Steps).contains("no error control"));
         assert!(run(0.0, 1.0, d(), OutputTimes::Interval(-1.0)).contains("output interval"));
         let out = OutputTimes::Times(vec![0.5, 0.2]);
         assert!(run(0.0, 1.0, d(), out).contains("strictly increase"));
