@@ -54,6 +54,26 @@ fn held_out_validation_is_for_minibatch_runs_and_says_so() {
 }
 
 #[test]
+fn a_trust_radius_near_the_float_limit_is_a_bounded_box_not_an_error() {
+    let data = linear2d_data(60, 44);
+    let trust = metriplectic_runtime::TrustRegion {
+        initial_radius: f64::MAX,
+        max_radius: f64::MAX,
+        ..metriplectic_runtime::TrustRegion::default()
+    };
+    let config = IdentifyConfig {
+        scheme: metriplectic_runtime::IterationScheme::AlternatingThenJoint(trust),
+        max_iterations: 2,
+        tolerance: 0.0,
+        ..IdentifyConfig::default()
+    };
+    // Before, radius × column width overflowed to an infinite box and the
+    // joint step failed on a non-finite right-hand side.
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    assert!(result.history.iterations.iter().any(|r| r.joint.is_some()));
+}
+
+#[test]
 fn duplicated_samples_weigh_the_cost_and_change_nothing_else() {
     // Documented behaviour: a duplicated sample counts twice in the L1 cost
     // (it is not deduplicated). Duplicating *every* sample doubles the cost

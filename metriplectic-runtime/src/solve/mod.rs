@@ -27,11 +27,12 @@ use crate::error::Result;
 
 /// Solves an [`L1Problem`] with the backend and tolerances of `settings`.
 ///
-/// Errors only on invalid settings (or, with Clarabel, a problem Clarabel
-/// rejects). Solver trouble — infeasibility, the iteration limit, numerical
+/// Errors only on invalid settings, a problem too large for dense matrices
+/// (or, with Clarabel, a problem Clarabel rejects). Solver trouble — infeasibility, the iteration limit, numerical
 /// breakdown — is reported in [`L1Solution::status`], not as an error.
 pub fn solve_l1(problem: &L1Problem, settings: &SolverSettings) -> Result<L1Solution> {
     settings.validate()?;
+    problem.check_size(matches!(settings.backend, SolverBackend::Dense))?;
     match settings.backend {
         SolverBackend::Dense => dense::solve(problem, settings),
         #[cfg(feature = "clarabel")]
@@ -160,5 +161,34 @@ pub(crate) mod tests {
         let not_finite = problem.constrain(Cone::Zero(1), vec![(0, 0, f64::NAN)], vec![0.0]);
         assert!(not_finite.is_err());
         assert!(Regression::new(2, vec![1.0], vec![1.0]).is_err());
+        let empty_psd = problem.constrain(Cone::Psd(0), vec![], vec![]);
+        assert!(empty_psd.unwrap_err().to_string().contains("0×0"));
+        // n(n + 1)/2 overflows: no right-hand side can match it.
+        assert!(problem
+            .constrain(Cone::Psd(usize::MAX), vec![], vec![])
+            .is_err());
+    }
+
+    /// Sizes no machine can hold are refused by `solve_l1` before any
+    /// allocation, for every backend: before, a width of 2⁶³ with no rows
+    /// wrapped inside nalgebra, and `extra = usize::MAX` overflowed the
+    /// variable count.
+    #[test]
+    fn problems_beyond_memory_are_errors_before_any_allocation() {
+        for backend in backends() {
+            let settings = with_backend(backend);
+            let wide = Regression::new(1 << 63, vec![], vec![]).unwrap();
+            let mut problem = L1Problem::new(wide, 0);
+            problem
+                .constrain(Cone::Nonnegative(2), vec![(1, 1, 1.0)], vec![0.0, 0.0])
+                .unwrap();
+            let error = solve_l1(&problem, &settings).unwrap_err();
+            assert!(error.to_string().contains("problem size"), "{error}");
+            let regression = Regression::new(1, vec![1.0], vec![1.0]).unwrap();
+            let problem = L1Problem::new(regression, usize::MAX);
+            assert_eq!(problem.variables(), usize::MAX);
+            let error = solve_l1(&problem, &settings).unwrap_err();
+            assert!(error.to_string().contains("problem size"), "{error}");
+        }
     }
 }

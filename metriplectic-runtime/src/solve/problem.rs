@@ -21,12 +21,20 @@ pub enum Cone {
     Psd(usize),
 }
 
+/// Most entries of the dense solver's largest matrix, max(rows, variables)
+/// × variables: 16 GiB of `f64`.
+pub(crate) const MAX_DENSE_ENTRIES: usize = 1 << 31;
+
 impl Cone {
-    /// Number of constraint rows the cone occupies.
+    /// Number of constraint rows the cone occupies (`usize::MAX` when
+    /// n(n+1)/2 does not fit, which no right-hand side can match).
     pub fn rows(self) -> usize {
         match self {
             Self::Zero(d) | Self::Nonnegative(d) => d,
-            Self::Psd(n) => n * (n + 1) / 2,
+            Self::Psd(n) => n
+                .checked_add(1)
+                .and_then(|m| n.checked_mul(m))
+                .map_or(usize::MAX, |v| v / 2),
         }
     }
 }
@@ -53,7 +61,7 @@ impl Regression {
     ///
     /// Errors if the lengths disagree or a value is not finite.
     pub fn new(width: usize, rows: Vec<f64>, target: Vec<f64>) -> Result<Self> {
-        if rows.len() != target.len() * width {
+        if target.len().checked_mul(width) != Some(rows.len()) {
             return Err(invalid(
                 "regression rows",
                 format!(
@@ -209,9 +217,38 @@ impl L1Problem {
         }
     }
 
-    /// Number of variables: the regression's coefficients, then the extra ones.
+    /// Number of variables: the regression's coefficients, then the extra
+    /// ones (`usize::MAX` if that does not fit; [`solve_l1`](crate::solve_l1)
+    /// refuses such a problem).
     pub fn variables(&self) -> usize {
-        self.regression.width + self.extra
+        self.regression.width.saturating_add(self.extra)
+    }
+
+    /// Errors unless the problem's sizes can be represented, and, for the
+    /// dense solver (`dense`), its matrices fit in memory: the constraint
+    /// and regression rows and the Schur complement, max(rows, variables)
+    /// × variables, at most [`MAX_DENSE_ENTRIES`]. So no size wraps around
+    /// or fails to allocate deep inside a solver.
+    pub(crate) fn check_size(&self, dense: bool) -> Result<()> {
+        let rows = self
+            .constraints
+            .iter()
+            .fold(self.regression.target.len(), |sum, c| {
+                sum.saturating_add(c.rhs.len())
+            });
+        let variables = self.variables();
+        let entries = rows.max(variables).saturating_mul(variables);
+        let beyond = variables > MAX_DENSE_ENTRIES || rows > MAX_DENSE_ENTRIES;
+        if beyond || (dense && entries > MAX_DENSE_ENTRIES) {
+            return Err(invalid(
+                "problem size",
+                format!(
+                    "{rows} rows × {variables} variables is beyond the dense solver's matrices \
+                     (at most {MAX_DENSE_ENTRIES} entries in max(rows, variables) × variables)"
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// The regression part of the objective.
@@ -230,6 +267,12 @@ impl L1Problem {
         entries: Vec<(usize, usize, f64)>,
         rhs: Vec<f64>,
     ) -> Result<ConstraintId> {
+        if cone == Cone::Psd(0) {
+            return Err(invalid(
+                "constraint cone",
+                "a PSD cone of a 0×0 matrix constrains nothing; leave it out",
+            ));
+        }
         let rows = cone.rows();
         if rhs.len() != rows {
             return Err(invalid(

@@ -8,7 +8,7 @@ use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::cost::{model_cost, model_residuals, Cost};
 use crate::model::classical::{self, Equalities};
-use crate::model::{theta_from_gram, GramCertificate, Model};
+use crate::model::{theta_from_gram, GramCertificate, Model, MAX_COEFFICIENT};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
 
@@ -232,14 +232,17 @@ fn step_with_offset<S: MetriplecticSystem>(
     }
     let mut entries = Vec::with_capacity(2 * (t_len + p));
     let mut rhs = Vec::with_capacity(2 * (t_len + p));
+    // A radius near f64::MAX would make the box infinite; no coefficient
+    // of a model exceeds MAX_COEFFICIENT, so that bounds the reach.
+    let reach_of = |column: usize| (radius * widths[column]).min(2.0 * MAX_COEFFICIENT);
     for (t, &value) in theta.iter().enumerate() {
-        let reach = radius * widths[t];
+        let reach = reach_of(t);
         entries.push((2 * t, t, 1.0));
         entries.push((2 * t + 1, t, -1.0));
         rhs.extend([value + reach, reach - value]);
     }
     for (k, &value) in psi.iter().enumerate() {
-        let reach = radius * widths[t_len + k];
+        let reach = reach_of(t_len + k);
         let row = 2 * (t_len + k);
         entries.push((row, t_len + k, 1.0));
         entries.push((row + 1, t_len + k, -1.0));

@@ -389,7 +389,9 @@ pub(super) fn psd_step_limit(lambda: &[f64], d: &[f64]) -> f64 {
         }
     }
     // A failed eigensolver stops the step (NaN ends the iteration).
-    let smallest = symmetric_eigenvalues(&m).map_or(f64::NAN, |values| values[0]);
+    let smallest = symmetric_eigenvalues(&m).map_or(f64::NAN, |values| {
+        values.first().copied().unwrap_or(f64::INFINITY)
+    });
     if smallest < 0.0 {
         -1.0 / smallest
     } else if smallest.is_nan() {
@@ -406,8 +408,11 @@ pub(super) fn shift_into_cones(segments: &[Segment], v: &mut DVector<f64>) {
     for segment in segments {
         let range = segment.range();
         let smallest = match segment.psd {
+            // An empty block (refused by `constrain`) has no eigenvalue.
             Some(n) => symmetric_eigenvalues(&smat(n, &v.as_slice()[range]))
-                .map_or(f64::NAN, |values| values[0]),
+                .map_or(f64::NAN, |values| {
+                    values.first().copied().unwrap_or(f64::INFINITY)
+                }),
             None => v.as_slice()[range]
                 .iter()
                 .copied()

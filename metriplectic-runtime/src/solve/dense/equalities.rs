@@ -146,7 +146,23 @@ pub(super) fn eliminate(
     }
     let residual = (&block * &least_norm - f).amax();
     if residual > CONSISTENCY_TOLERANCE * (1.0 + f.amax()) {
-        return Err(Failure::Inconsistent);
+        // The rank cut may have dropped the directions f needs: if every
+        // singular value above rounding fits f, the equalities are
+        // consistent but too ill-conditioned to eliminate, not infeasible.
+        let mut full = least_norm;
+        for (index, &value) in singular.iter().enumerate().skip(rank) {
+            if value > f64::EPSILON * largest * singular.len() as f64 {
+                full += v.column(index) * (u.column(index).dot(f) / value);
+            }
+        }
+        let full_residual = (&block * &full - f).amax();
+        return Err(
+            if full_residual <= CONSISTENCY_TOLERANCE * (1.0 + f.amax()) {
+                Failure::Numerical
+            } else {
+                Failure::Inconsistent
+            },
+        );
     }
     let null = v.columns(rank, constrained.len() - rank).into_owned();
     Ok(Elimination {
@@ -217,6 +233,20 @@ mod tests {
         };
         assert!(none.is_identity());
         assert_eq!(none.free, vec![0, 1, 2]);
+    }
+
+    /// x₀ + x₁ = 0, x₀ + (1 + 1e-8) x₁ = 1e-8 holds at x = (−1, 1), but
+    /// its second singular value (5e-9 of 2) is below the rank cut: too
+    /// ill-conditioned to eliminate, and not a proof of infeasibility.
+    #[test]
+    fn consistent_but_ill_conditioned_equalities_are_not_called_inconsistent() {
+        let e = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0 + 1e-8]);
+        let f = DVector::from_row_slice(&[0.0, 1e-8]);
+        assert!(matches!(eliminate(&e, &f, 2), Err(Failure::Numerical)));
+        // Two equal rows with different right-hand sides are inconsistent.
+        let e = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+        let f = DVector::from_row_slice(&[0.0, 1e-6]);
+        assert!(matches!(eliminate(&e, &f, 2), Err(Failure::Inconsistent)));
     }
 
     /// The equalities of a joint step on a 6-state system with a constant
