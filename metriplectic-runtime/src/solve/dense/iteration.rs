@@ -67,12 +67,14 @@ impl Point {
         }
     }
 
+    /// Every component, not only y's: the convergence tests take maxima
+    /// with nalgebra's `amax`, which passes over NaN.
     fn is_finite(&self) -> bool {
-        self.y
-            .iter()
-            .chain(self.s1.iter())
-            .chain(self.z1.iter())
-            .all(|v| v.is_finite())
+        [
+            &self.y, &self.e, &self.s1, &self.s2, &self.sc, &self.z1, &self.z2, &self.zc,
+        ]
+        .iter()
+        .all(|v| v.iter().all(|x| x.is_finite()))
     }
 }
 
