@@ -179,14 +179,16 @@ metriplectic! {
     }
 }
 
+/// `count` exact samples of [`DuffingDegree8`] in [−1.5, 1.5]².
+fn duffing_samples(count: usize, seed: u64) -> Dataset {
+    reference_samples::<DuffingDegree8>(count, seed, |rng| {
+        (0..2).map(|_| rng.random_range(-1.5..1.5)).collect()
+    })
+}
+
 #[test]
 fn degree_selection_finds_a_lower_true_degree_without_recompiling() {
-    let sample = |count, seed| {
-        reference_samples::<DuffingDegree8>(count, seed, |rng| {
-            (0..2).map(|_| rng.random_range(-1.5..1.5)).collect()
-        })
-    };
-    let (train, validation) = (sample(600, 25), sample(300, 26));
+    let (train, validation) = (duffing_samples(600, 25), duffing_samples(300, 26));
     let selection = select_degrees::<DuffingDegree8, _>(
         &train,
         &validation,
@@ -363,12 +365,7 @@ fn noisy_2d_data_give_the_true_sparse_equations_with_intervals_and_degree() {
 /// the dense model is).
 #[test]
 fn the_analyses_check_their_inputs_and_fit_their_starts_to_each_support() {
-    let sample = |count, seed| {
-        reference_samples::<DuffingDegree8>(count, seed, |rng| {
-            (0..2).map(|_| rng.random_range(-1.5..1.5)).collect()
-        })
-    };
-    let (train, validation) = (sample(300, 31), sample(150, 32));
+    let (train, validation) = (duffing_samples(300, 31), duffing_samples(150, 32));
     let dense = Model::<DuffingDegree8>::reference().unwrap();
     let wide = Dataset::from_rows(3, &[[0.1, 0.2, 0.3]], &[[0.0, 0.0, 0.0]]).unwrap();
     let error = metriplectic_runtime::sparsify(

@@ -81,6 +81,33 @@ fn ball_mistakes() {
     );
 }
 
+/// Regions whose constraints lose their meaning when their coefficients
+/// are rounded to `f64` (the certificate tables carry them so): a ball of
+/// radius 1 at 10⁸ rounds to g′ = −(q − 10⁸)², which certifies any K; a
+/// box a billionth wide at 0.1 changes by more than it peaks. Ordinary
+/// regions, far or near, are accepted.
+#[test]
+fn regions_that_rounding_would_change_are_refused() {
+    let refused = "the region cannot be certified in floating point";
+    let all = messages(oscillator(quote! {
+        region ball(center = [100000000, 0], radius = 1);
+    }));
+    assert_messages(&all, &[refused]);
+    let all = messages(oscillator(quote! {
+        region box(q in [0.1, 0.1000000001], p in [-1, 1]);
+    }));
+    assert_messages(
+        &all,
+        &["the region cannot be certified in floating point: its constraint g0(x)"],
+    );
+    expand(oscillator(
+        quote! { region ball(center = [1000, 0], radius = 1); },
+    ));
+    expand(oscillator(
+        quote! { region box(q in [0.1, 0.1001], p in [-1, 1]); },
+    ));
+}
+
 #[test]
 fn box_mistakes() {
     let all = messages(oscillator(quote! { region box(q in [-2, 2]); }));

@@ -207,10 +207,72 @@ pub fn check_region(
         }
     };
     let constraints = model.constraints(n);
-    let constraints =
-        super::scope::exact(constraints, SpanRange::single(decl.keyword), diagnostics)?;
+    let span = SpanRange::single(decl.keyword);
+    let constraints = super::scope::exact(constraints, span, diagnostics)?;
+    if let Some(reason) = rounding_problem(&model, &constraints) {
+        diagnostics.push(span.error(reason));
+        return None;
+    }
     Some((model, constraints))
 }
+
+/// Why the region's constraints cannot be used in `f64`, if they cannot.
+///
+/// The certificate tables carry gₖ's coefficients rounded to `f64`, so the
+/// runtime certifies K on {g′ₖ ≥ 0}, not on {gₖ ≥ 0}. Each coefficient
+/// moves by at most a few units in its last place, so over the region g′ₖ
+/// differs from gₖ by at most B = 4ε Σ_α |c_α| max|x^α|. That must be small
+/// against gₖ's largest value on the region, or the certified set is
+/// another one: a ball of radius 1 at 10⁸ rounds to g′ = −(q − 10⁸)² ≤ 0,
+/// on which any K is certified.
+fn rounding_problem(model: &RegionModel, constraints: &[Polynomial]) -> Option<String> {
+    // Largest |xⱼ| on the region and each constraint's largest value.
+    let (reach, peaks): (Vec<f64>, Vec<f64>) = match model {
+        RegionModel::Ball { center, radius } => {
+            let r = radius.to_f64();
+            let reach = center.iter().map(|c| c.to_f64().abs() + r).collect();
+            (reach, vec![r * r])
+        }
+        RegionModel::Box { lower, upper } => {
+            let reach = lower
+                .iter()
+                .zip(upper)
+                .map(|(l, u)| l.to_f64().abs().max(u.to_f64().abs()))
+                .collect();
+            let peaks = lower
+                .iter()
+                .zip(upper)
+                .map(|(l, u)| (0.5 * (u.to_f64() - l.to_f64())).powi(2))
+                .collect();
+            (reach, peaks)
+        }
+    };
+    for (k, (g, peak)) in constraints.iter().zip(peaks).enumerate() {
+        let size: f64 = g
+            .terms()
+            .map(|(e, c)| {
+                e.iter()
+                    .zip(&reach)
+                    .fold(c.to_f64().abs(), |m, (&a, r)| m * r.powi(a as i32))
+            })
+            .sum();
+        let moved = 4.0 * f64::EPSILON * size;
+        // NaN (a region beyond f64) counts as too large.
+        if moved.is_nan() || moved > REGION_ROUNDING * peak {
+            return Some(format!(
+                "the region cannot be certified in floating point: its constraint g{k}(x) ≥ 0 \
+                 peaks at {peak:e} on the region, but rounding its coefficients to f64 moves it \
+                 by up to {moved:e} there, so the certificate would hold on another set; \
+                 shift or rescale the state variables so that the region lies near the origin \
+                 and is not tiny against its distance from it"
+            ));
+        }
+    }
+    None
+}
+
+/// Largest change of a region constraint by rounding, relative to its peak.
+const REGION_ROUNDING: f64 = 1e-6;
 
 /// A constant expression's exact value.
 fn constant(
