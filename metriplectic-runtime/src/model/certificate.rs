@@ -26,8 +26,8 @@ use rand_chacha::ChaCha8Rng;
 use super::gram::Layout;
 use crate::error::{Error, Result};
 use crate::solve::linalg::symmetric_eigen;
-use crate::solve::svec::{svec_diagonal, svec_index, svec_len, SQRT_2};
-use crate::solve::{solve_l1, Cone, L1Problem, Regression, SolverSettings};
+use crate::solve::svec::{smat, svec_diagonal, svec_index, svec_len, SQRT_2};
+use crate::solve::{solve_l1, Cone, L1Problem, Regression, SolveStatus, SolverSettings};
 use crate::system::{metric_pair_index, CertificateMode, MetriplecticSystem, RegionCertificate};
 
 /// Relative tolerance of a constant block's smallest eigenvalue: rounding
@@ -270,6 +270,7 @@ fn certify_block<S: MetriplecticSystem>(
             }
         }
     }
+    let matching = (entries.clone(), rhs.clone());
     let built = problem
         .constrain(Cone::Zero(rhs.len()), entries, rhs)
         .and_then(|_| {
@@ -286,14 +287,21 @@ fn certify_block<S: MetriplecticSystem>(
     let solution = solve_l1(&problem, &certificate_settings())
         .map_err(|error| format!("the certificate program failed: {error}"))?;
     let s = solution.coefficients()[0] * scale;
-    if solution.status.is_usable() && s <= CERTIFICATE_TOLERANCE * scale {
+    let verified = solution.status == SolveStatus::Solved
+        || verify(&matching, &[(1, size)], solution.coefficients());
+    if solution.status.is_usable() && verified && s <= CERTIFICATE_TOLERANCE * scale {
         Ok(())
     } else {
         Err(format!(
             "the best sum-of-squares Gram matrix over {} monomials needs a shift s = {s:e} to be \
-             positive semidefinite (solver status {})",
+             positive semidefinite (solver status {}{})",
             half.len(),
-            solution.status
+            solution.status,
+            if verified {
+                ""
+            } else {
+                ", and its Gram matrix does not check to 1e-8"
+            }
         ))
     }
 }
@@ -418,6 +426,7 @@ fn certify_on_region<S: MetriplecticSystem>(
             }
         }
     }
+    let matching = (entries.clone(), rhs.clone());
     let mut built = problem
         .constrain(Cone::Zero(rhs.len()), entries, rhs)
         .map(|_| ());
@@ -440,15 +449,56 @@ fn certify_on_region<S: MetriplecticSystem>(
     let solution = solve_l1(&problem, &certificate_settings())
         .map_err(|error| format!("the region certificate program failed: {error}"))?;
     let s = solution.coefficients()[0] * scale;
-    if solution.status.is_usable() && s <= CERTIFICATE_TOLERANCE * scale {
+    let grams: Vec<(usize, usize)> = offsets.iter().copied().zip(sizes.iter().copied()).collect();
+    let verified = solution.status == SolveStatus::Solved
+        || verify(&matching, &grams, solution.coefficients());
+    if solution.status.is_usable() && verified && s <= CERTIFICATE_TOLERANCE * scale {
         Ok(())
     } else {
         Err(format!(
             "the best S-procedure certificate on the region needs a shift s = {s:e} to be \
-             positive semidefinite (solver status {})",
-            solution.status
+             positive semidefinite (solver status {}{})",
+            solution.status,
+            if verified {
+                ""
+            } else {
+                ", and its Gram matrices do not check to 1e-8"
+            }
         ))
     }
+}
+
+/// Whether a certificate solution holds on its own, to
+/// `CERTIFICATE_TOLERANCE` of the normalised metric: the matching rows
+/// `rhs − A x` vanish and every Gram matrix (`(offset, side)` of its svec
+/// in x) is positive semidefinite. `AlmostSolved` allows a feasibility
+/// residual of 1e-4, which could hide an indefinite metric, so such a
+/// solve counts only if its Gram matrices pass this check.
+fn verify(
+    (entries, rhs): &(Vec<(usize, usize, f64)>, Vec<f64>),
+    grams: &[(usize, usize)],
+    x: &[f64],
+) -> bool {
+    let mut residual = rhs.clone();
+    for &(row, column, value) in entries {
+        match (residual.get_mut(row), x.get(column)) {
+            (Some(r), Some(v)) => *r -= value * v,
+            _ => return false,
+        }
+    }
+    if residual
+        .iter()
+        .any(|r| r.is_nan() || r.abs() > CERTIFICATE_TOLERANCE)
+    {
+        return false;
+    }
+    grams.iter().all(|&(offset, side)| {
+        let Some(packed) = x.get(offset..offset + svec_len(side)) else {
+            return false;
+        };
+        let smallest = smat(side, packed).symmetric_eigenvalues().min();
+        smallest >= -CERTIFICATE_TOLERANCE
+    })
 }
 
 /// A state in the region where K(x) has a negative eigenvalue, as the
@@ -503,6 +553,25 @@ mod tests {
     }
 
     // Pairs (0,0), (0,1), (1,1) at offsets 0, 6, 12; monomials 1, q, p, q², qp, p².
+
+    /// The independent check of an `AlmostSolved` certificate: one matching
+    /// row k = Q₀₀ + Q₁₁ over a 2×2 Gram matrix (svec at 1..4).
+    #[test]
+    fn an_almost_solved_certificate_counts_only_if_its_gram_matrices_check() {
+        let matching = |k: f64| (vec![(0, 1, 1.0), (0, 3, 1.0)], vec![k]);
+        // Q = diag(0.5, 0.5): matches k = 1 and is PSD.
+        assert!(verify(&matching(1.0), &[(1, 2)], &[0.0, 0.5, 0.0, 0.5]));
+        // Off by 1e-6 (within AlmostSolved's 1e-4, not within 1e-8).
+        assert!(!verify(
+            &matching(1.0),
+            &[(1, 2)],
+            &[0.0, 0.5, 0.0, 0.5 + 1e-6]
+        ));
+        // Matches k = 0 exactly, but Q = diag(1, −1) is indefinite.
+        assert!(!verify(&matching(0.0), &[(1, 2)], &[0.0, 1.0, 0.0, -1.0]));
+        // A Gram matrix beyond the solution is a failed check, not a panic.
+        assert!(!verify(&matching(1.0), &[(1, 3)], &[0.0, 0.5, 0.0, 0.5]));
+    }
 
     #[test]
     fn diagonal_blocks_are_separate() {
