@@ -437,6 +437,17 @@ impl Polynomial {
         Ok(out)
     }
 
+    /// Value at `x` (`x.len() == nvars`), exactly.
+    pub fn value_at(&self, x: &[Rational]) -> Exact<Rational> {
+        self.terms().try_fold(Rational::ZERO, |sum, (e, c)| {
+            let term = e
+                .iter()
+                .zip(x)
+                .try_fold(c, |product, (&k, &v)| product.mul(v.pow(k)?))?;
+            sum.add(term)
+        })
+    }
+
     /// Value at `x` (`x.len() == nvars`), in floating point.
     #[cfg(test)]
     pub fn evaluate(&self, x: &[f64]) -> f64 {

@@ -180,6 +180,32 @@ fn certificate_options_need_a_region() {
     assert_messages(&all, &["`region` is declared twice"]);
 }
 
+/// A state-dependent reference metric is checked exactly at the region's
+/// centre, axis ends or corners: 1 − 2q² is −1 at the box's corners and is
+/// refused at compile time; 1 − q², PSD on the box (0 at its corners), is
+/// accepted here and left to the runtime's certificate.
+#[test]
+fn reference_metrics_are_spot_checked_on_the_region() {
+    let refused = messages(oscillator(quote! {
+        region box(q in [-1, 1], p in [-1, 1]);
+        reference { entropy = -q^2; metric = [[1 - 2*q^2, 0], [0, 1]]; }
+    }));
+    assert_messages(
+        &refused,
+        &["the reference metric is not positive semidefinite in the region: at (q, p) = (-1, -1), \
+           yᵀK(x)y = -1 < 0 for y = (1, 0)"],
+    );
+    let refused = messages(oscillator(quote! {
+        region ball(radius = 2);
+        reference { entropy = -q^2; metric = [[1, q], [q, 1]]; }
+    }));
+    assert_messages(&refused, &["at (q, p) = (-2, 0)"]);
+    expand(oscillator(quote! {
+        region box(q in [-1, 1], p in [-1, 1]);
+        reference { entropy = -q^2; metric = [[1 - q^2, 0], [0, 1]]; }
+    }));
+}
+
 #[test]
 fn non_constant_reference_metrics_need_a_region() {
     let reference = quote! {

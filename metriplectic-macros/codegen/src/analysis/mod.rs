@@ -128,6 +128,10 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
         .as_ref()
         .and_then(|decl| region::check_region(decl, &scope, diagnostics));
     let options = region::options(def, n, diagnostics);
+    // Where a state-dependent reference metric is spot-checked.
+    let spots = region
+        .as_ref()
+        .map(|(model, _)| model.spot_points().unwrap_or_default());
     let certificate = match (region, options, bases.as_ref(), def.region.as_ref()) {
         (Some((region, constraints)), Some(options), Some(bases), Some(decl)) => {
             let order = def.relaxation.and_then(|r| r.order);
@@ -150,7 +154,7 @@ pub fn analyse(def: &SystemDef, diagnostics: &mut Diagnostics) -> Option<System>
             entropy_degree,
             metric_degree,
             bases.as_ref(),
-            def.region.is_some(),
+            (def.region.is_some(), spots.as_deref().unwrap_or_default()),
             diagnostics,
         )
     });

@@ -33,7 +33,7 @@ pub fn check_reference(
     entropy_degree: Option<u32>,
     metric_degree: Option<u32>,
     bases: Option<&Bases>,
-    region: bool,
+    region: (bool, &[Vec<Rational>]),
     diagnostics: &mut Diagnostics,
 ) -> Option<ReferenceModel> {
     let entropy = reference.entropy.as_ref().and_then(|expr| {
@@ -89,7 +89,7 @@ fn check_metric(
     scope: &Scope,
     matrix: &Matrix,
     metric_degree: Option<u32>,
-    region: bool,
+    region: (bool, &[Vec<Rational>]),
     diagnostics: &mut Diagnostics,
 ) -> Option<Vec<Polynomial>> {
     let metric = scope.matrix(matrix, "the reference metric K", diagnostics)?;
@@ -137,15 +137,17 @@ fn check_metric(
 ///
 /// A constant metric is decided exactly here. A non-constant one needs a
 /// region: bounded on all of Rⁿ (0 ⪯ K(x) ⪯ ηI), a matrix polynomial is
-/// constant, so without a region it is an error. With one it is accepted
-/// here; certifying it on the region is a semidefinite program, a job for
-/// the runtime's solver (`REGION_CERTIFICATE`) rather than for exact
-/// elimination.
+/// constant, so without a region it is an error. With one it is checked
+/// exactly at a few points of the region (`spots`: its centre, the ends of
+/// a ball's axes, a box's corners), which can only refuse a metric that
+/// is indefinite there; certifying it on the whole region is a
+/// semidefinite program, a job for the runtime's solver
+/// (`REGION_CERTIFICATE`) rather than for exact elimination.
 fn check_definiteness(
     metric: &[Polynomial],
     matrix: &Matrix,
     names: &[String],
-    region: bool,
+    (region, spots): (bool, &[Vec<Rational>]),
     diagnostics: &mut Diagnostics,
 ) -> bool {
     let span = SpanRange::single(matrix.span);
@@ -155,7 +157,11 @@ fn check_definiteness(
         .collect::<Option<Vec<Rational>>>()
     else {
         if region {
-            return true;
+            let Some(message) = spot_check(metric, names, spots) else {
+                return true;
+            };
+            diagnostics.push(span.error(message));
+            return false;
         }
         let n = names.len();
         diagnostics.push(span.error(format!(
@@ -189,4 +195,37 @@ fn check_definiteness(
             false
         }
     }
+}
+
+/// Why K is not positive semidefinite at one of `spots`, if it is not at
+/// one (points whose values overflow are skipped: the runtime checks them).
+fn spot_check(metric: &[Polynomial], names: &[String], spots: &[Vec<Rational>]) -> Option<String> {
+    let n = names.len();
+    spots.iter().find_map(|x| {
+        let values = metric
+            .iter()
+            .map(|entry| entry.value_at(x))
+            .collect::<Result<Vec<_>, _>>()
+            .ok()?;
+        match definiteness::semidefinite(&values, n).ok()? {
+            Definiteness::Semidefinite => None,
+            Definiteness::Indefinite { witness, value } => {
+                let text = |v: &[Rational]| {
+                    v.iter()
+                        .map(Rational::to_string)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                Some(format!(
+                    "the reference metric is not positive semidefinite in the region: at \
+                     ({}) = ({}), yᵀK(x)y = {value} < 0 for y = ({}), so wherever ∇E points \
+                     along y there the free energy would decrease (dE/dt = ∇Eᵀ K ∇E); use a \
+                     metric that is positive semidefinite on the region",
+                    names.join(", "),
+                    text(x),
+                    text(&witness)
+                ))
+            }
+        }
+    })
 }

@@ -20,7 +20,7 @@ use super::scope::{list, Context, Scope};
 use crate::bases::{self, Bases};
 use crate::diagnostics::Diagnostics;
 use crate::parse::{Degree, Interval, Mode, RegionDecl, RegionShape, SpanRange, SystemDef, Vector};
-use crate::polynomial::{Exact, Polynomial, Rational};
+use crate::polynomial::{Exact, Overflow, Polynomial, Rational};
 
 /// Largest number of (β, γ, c) entries over all blocks of a certificate:
 /// each is a tuple of the expansion.
@@ -70,6 +70,50 @@ impl RegionModel {
                     constant(*u).sub(&x)?.mul(&x.sub(&constant(*l))?)
                 })
                 .collect(),
+        }
+    }
+
+    /// Exact points of the region to spot-check a reference metric at: the
+    /// centre, the ends of the ball's axes (or the box's corners, up to 8
+    /// variables). `Err` if a coordinate overflows.
+    pub fn spot_points(&self) -> Exact<Vec<Vec<Rational>>> {
+        let two = Rational::integer(2);
+        match self {
+            RegionModel::Ball { center, radius } => {
+                let mut points = vec![center.clone()];
+                for j in 0..center.len() {
+                    for side in [radius.neg()?, *radius] {
+                        let mut point = center.clone();
+                        point[j] = point[j].add(side)?;
+                        points.push(point);
+                    }
+                }
+                Ok(points)
+            }
+            RegionModel::Box { lower, upper } => {
+                let centre = lower
+                    .iter()
+                    .zip(upper)
+                    .map(|(l, u)| l.add(*u)?.div(two)?.ok_or(Overflow))
+                    .collect::<Exact<Vec<_>>>()?;
+                let mut points = vec![centre];
+                let n = lower.len();
+                if n <= 8 {
+                    for corner in 0..1_usize << n {
+                        let point = (0..n)
+                            .map(|j| {
+                                if corner >> j & 1 == 0 {
+                                    lower[j]
+                                } else {
+                                    upper[j]
+                                }
+                            })
+                            .collect();
+                        points.push(point);
+                    }
+                }
+                Ok(points)
+            }
         }
     }
 
