@@ -28,8 +28,9 @@ use crate::error::Result;
 /// Solves an [`L1Problem`] with the backend and tolerances of `settings`.
 ///
 /// Errors only on invalid settings, a problem too large for dense matrices
-/// (or, with Clarabel, a problem Clarabel rejects). Solver trouble — infeasibility, the iteration limit, numerical
-/// breakdown — is reported in [`L1Solution::status`], not as an error.
+/// (or, with Clarabel, a problem Clarabel rejects). Solver trouble —
+/// infeasibility, the iteration limit, numerical breakdown — is reported in
+/// [`L1Solution::status`], not as an error.
 pub fn solve_l1(problem: &L1Problem, settings: &SolverSettings) -> Result<L1Solution> {
     settings.validate()?;
     problem.check_size(matches!(settings.backend, SolverBackend::Dense))?;
