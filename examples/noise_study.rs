@@ -108,7 +108,7 @@ fn main() -> ExitCode {
 fn study<S: MetriplecticSystem>(experiment: &Experiment, options: &Options) -> Result<Vec<Row>> {
     let truth = Model::<S>::reference()?;
     let synthesis = |noise: Noise| SynthesisOptions {
-        trajectories: options.train_trajectories + 20,
+        trajectories: options.train_trajectories.saturating_add(20),
         held_out_trajectories: 20,
         duration: experiment.duration,
         seed: options.seed,

@@ -105,7 +105,8 @@ pub fn run(options: &Options) -> Result<Summary> {
     let mut report = String::new();
     let truth = Model::<ClassicalRigidBody>::reference()?;
     let train = classical_rigid_body_data(options.train_samples, options.seed);
-    let held_out = classical_rigid_body_data(options.heldout_samples, options.seed + 1000);
+    let held_out =
+        classical_rigid_body_data(options.heldout_samples, options.seed.wrapping_add(1000));
 
     // Identification from the default (cold) start.
     let fit = identify::<ClassicalRigidBody>(&train, &IdentifyConfig::default())?;
@@ -124,7 +125,7 @@ pub fn run(options: &Options) -> Result<Summary> {
     let _ = writeln!(report, "{model}");
 
     // Long simulations of the identified model from states inside the ball.
-    let mut rng = ChaCha8Rng::seed_from_u64(options.seed + 2000);
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed.wrapping_add(2000));
     let initial: Vec<f64> = (0..options.trajectories)
         .flat_map(|_| {
             let p: Vec<f64> = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();

@@ -524,8 +524,16 @@ fn synthesize_data<S: MetriplecticSystem>(
     experiment: &Experiment,
     options: &Options,
 ) -> Result<SyntheticData, ReproductionError> {
+    let trajectories = options
+        .train_trajectories
+        .checked_add(options.heldout_trajectories)
+        .ok_or_else(|| {
+            ReproductionError::Option(
+                "--train-trajectories plus --heldout-trajectories overflows".into(),
+            )
+        })?;
     let synthesis = SynthesisOptions {
-        trajectories: options.train_trajectories + options.heldout_trajectories,
+        trajectories,
         held_out_trajectories: options.heldout_trajectories,
         duration: experiment.duration,
         seed: options.seed,

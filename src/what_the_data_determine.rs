@@ -292,8 +292,16 @@ struct MeasuredData {
 fn measured_data(options: &Options) -> Result<MeasuredData> {
     let experiment = experiments::linear_2d();
     let truth = Model::<Linear2d>::reference()?;
-    let total =
-        options.train_trajectories + options.validation_trajectories + options.heldout_trajectories;
+    let total = options
+        .train_trajectories
+        .checked_add(options.validation_trajectories)
+        .and_then(|sum| sum.checked_add(options.heldout_trajectories))
+        .ok_or_else(|| Error::InvalidArgument {
+            what: "trajectory counts".to_owned(),
+            reason: "--train-trajectories, --validation-trajectories and --heldout-trajectories \
+                     add up beyond usize"
+                .to_owned(),
+        })?;
     let synthesis = |state_std| SynthesisOptions {
         trajectories: total,
         held_out_trajectories: options.heldout_trajectories,

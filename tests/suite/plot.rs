@@ -553,6 +553,13 @@ fn coordinates_too_large_to_lay_out_are_rejected() {
         plot_error(trajectories_3d(&path, &huge, Some(1.0), &labels)),
         PlotError::InvalidArgument { .. }
     ));
+    // A sphere too large to lay out, around small data: refused, where
+    // plotters' key points looped forever on an infinite axis width.
+    let small = vec![vec![[0.0, 0.0, 1.0]]];
+    assert!(matches!(
+        plot_error(trajectories_3d(&path, &small, Some(1e308), &labels)),
+        PlotError::InvalidArgument { .. }
+    ));
     let huge_times = [(vec![-1e308, 1e308], vec![-1.0, -0.5])];
     assert!(matches!(
         plot_error(free_energy_curves(&path, &huge_times, &labels)),
@@ -887,4 +894,20 @@ fn trajectory_overlay_rejects_mismatched_states() {
         PlotError::UnsupportedFormat { .. }
     ));
     assert!(!path.exists(), "a rejected figure must not leave a file");
+}
+
+/// Log-axis ranges at the ends of f64: adjacent subnormal bounds end (their
+/// step exponent once overflowed), and a range up to f64::MAX has no tick
+/// at infinity labelled 10³⁰⁹.
+#[test]
+fn log_ticks_at_the_ends_of_the_float_range_are_finite_and_end() {
+    let tiny = log_axis_ticks(f64::from_bits(100), f64::from_bits(101)).unwrap();
+    assert!(tiny.iter().all(|t| t.value.is_finite()), "{tiny:?}");
+    let top = log_axis_ticks(1e305, f64::MAX).unwrap();
+    assert!(!top.is_empty());
+    assert!(
+        top.iter()
+            .all(|t| t.value.is_finite() && t.value <= f64::MAX),
+        "{top:?}"
+    );
 }

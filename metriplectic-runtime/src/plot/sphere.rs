@@ -48,8 +48,11 @@ where
         .into_iter()
         .map(|t| t.into_iter().map(|x| [x[0], x[1], x[2]]).collect())
         .collect();
-    let largest = data::bounds(trajectories.iter().flatten().flatten().map(|v| v.abs())).1;
-    data::drawable_span("coordinates", -largest, largest)?;
+    // The axes span the sphere too: its radius must be drawable as well.
+    let largest = data::bounds(trajectories.iter().flatten().flatten().map(|v| v.abs()))
+        .1
+        .max(sphere_radius.unwrap_or(0.0));
+    data::drawable_span("coordinates and sphere radius", -largest, largest)?;
     let figure = Trajectories3d {
         trajectories,
         sphere_radius,

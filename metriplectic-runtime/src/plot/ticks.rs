@@ -66,7 +66,8 @@ pub fn log_axis_ticks(low: f64, high: f64) -> crate::Result<Vec<AxisTick>> {
         }
         .into());
     }
-    let inside = |v: f64| v >= low * (1.0 - SLACK) && v <= high * (1.0 + SLACK);
+    // Finite: near f64::MAX, 10³⁰⁹ is inf and high·(1 + SLACK) too.
+    let inside = |v: f64| v.is_finite() && v >= low * (1.0 - SLACK) && v <= high * (1.0 + SLACK);
     let first = low.log10().floor() as i32 - 1;
     let last = high.log10().ceil() as i32 + 1;
 
@@ -178,7 +179,9 @@ fn power_tick(m: i32, e: i32) -> AxisTick {
 fn linear_ticks(low: f64, high: f64) -> Vec<AxisTick> {
     let span = high - low;
     // The largest step giving at least 3 ticks: span/2 at most.
-    let mut exponent = (span / 2.0).log10().floor() as i32;
+    // Clamped: for adjacent subnormal bounds span/2 underflows to 0 and
+    // log10 to −∞, whose cast is i32::MIN (and its decrement overflows).
+    let mut exponent = (span / 2.0).log10().floor().clamp(-330.0, 330.0) as i32;
     loop {
         for m in [5, 2, 1] {
             let step = decimal(m, exponent);
