@@ -180,6 +180,18 @@ fn phase_portrait_writes_png_and_svg() {
     assert!(text.contains("zero set of E"), "legend missing");
     // One red start dot per trajectory.
     assert!(text.matches("<circle").count() >= trajectories.len());
+
+    // Drawn again over the same files: replaced through a temporary file
+    // and a rename, so nothing but the two figures is left in the directory.
+    phase_portrait_2d(&png, &trajectories, &zero_set, &planar_labels()).unwrap();
+    phase_portrait_2d(&svg, &trajectories, &zero_set, &planar_labels()).unwrap();
+    check_png(&png);
+    let mut names: Vec<String> = std::fs::read_dir(png.parent().unwrap())
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["phase_portrait.png", "phase_portrait.svg"]);
 }
 
 #[test]

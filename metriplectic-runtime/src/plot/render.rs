@@ -1,7 +1,5 @@
 //! Writing a figure to a PNG or SVG file chosen by the path's extension.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use plotters::coord::Shift;
@@ -84,7 +82,7 @@ pub(crate) fn render<F: Figure>(path: &Path, figure: &F) -> Result<(), PlotError
                 let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
                 draw_on(&root, figure).map_err(drawing)?;
             }
-            std::fs::write(path, svg).map_err(|source| io_error(path, source))
+            replace_atomically(path, svg.as_bytes())
         }
     }
 }
@@ -119,8 +117,7 @@ fn draw_on<DB: DrawingBackend, F: Figure>(
 /// Encodes 8-bit RGB pixels as PNG (the `png` crate is much lighter than
 /// plotters' `image`-based encoder).
 fn write_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<(), PlotError> {
-    let file = File::create(path).map_err(|source| io_error(path, source))?;
-    let mut out = BufWriter::new(file);
+    let mut out = Vec::new();
     let encoding = |err: png::EncodingError| PlotError::Encoding {
         path: path.to_path_buf(),
         message: err.to_string(),
@@ -136,12 +133,18 @@ fn write_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<(), Plo
         writer.write_image_data(rgb).map_err(encoding)?;
         writer.finish().map_err(encoding)?;
     }
-    out.flush().map_err(|source| io_error(path, source))
+    replace_atomically(path, &out)
 }
 
-fn io_error(path: &Path, source: std::io::Error) -> PlotError {
-    PlotError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
+/// Writes `bytes` to a temporary file beside `path` and renames it over
+/// `path`: a figure that fails half-way leaves the previous one whole.
+fn replace_atomically(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
+    crate::io::write_file(path, bytes, crate::io::WriteMode::Overwrite).map_err(|error| match error
+    {
+        crate::Error::Io { path, source } => PlotError::Io { path, source },
+        other => PlotError::InvalidArgument {
+            what: "figure path".to_owned(),
+            reason: other.to_string(),
+        },
+    })
 }
