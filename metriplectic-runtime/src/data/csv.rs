@@ -526,13 +526,13 @@ fn check_names(names: &[&str]) -> Result<()> {
             reason: "at least one state variable is required".to_owned(),
         });
     }
-    for (k, name) in names.iter().enumerate() {
-        if let Some(first) = names[..k].iter().position(|other| other == name) {
-            return Err(Error::InvalidArgument {
-                what: "state names".to_owned(),
-                reason: format!("`{name}` is both variable {first} and variable {k}"),
-            });
-        }
+    if let Some(reason) = super::trajectory::repeated_name(names) {
+        return Err(Error::InvalidArgument {
+            what: "state names".to_owned(),
+            reason,
+        });
+    }
+    for name in names {
         let reserved_for = if *name == TIME_COLUMN {
             Some("the time".to_owned())
         } else if *name == TRAJECTORY_COLUMN {

@@ -59,13 +59,8 @@ impl Trajectory {
                 "at least one state variable is required".to_owned(),
             ));
         }
-        for (k, name) in names.iter().enumerate() {
-            if let Some(first) = names[..k].iter().position(|other| other == name) {
-                return Err(invalid(
-                    "trajectory state names",
-                    format!("`{name}` is both variable {first} and variable {k}"),
-                ));
-            }
+        if let Some(reason) = repeated_name(&names) {
+            return Err(invalid("trajectory state names", reason));
         }
         if times.is_empty() {
             return Err(invalid(
@@ -344,6 +339,18 @@ pub fn split_by_trajectory(
     validation_indices.sort_unstable();
     let pick = |indices: &[usize]| indices.iter().map(|&i| trajectories[i].clone()).collect();
     Ok((pick(&order), pick(&validation_indices)))
+}
+
+/// "`q` is both variable 0 and variable 1" for the first name that
+/// repeats an earlier one; `None` if all differ.
+pub(crate) fn repeated_name<T: AsRef<str>>(names: &[T]) -> Option<String> {
+    names.iter().enumerate().find_map(|(k, name)| {
+        let name = name.as_ref();
+        names[..k]
+            .iter()
+            .position(|other| other.as_ref() == name)
+            .map(|first| format!("`{name}` is both variable {first} and variable {k}"))
+    })
 }
 
 #[cfg(test)]
