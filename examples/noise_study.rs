@@ -43,8 +43,8 @@ struct Options {
     /// Samples per trajectory (log-uniform in time, as in the paper).
     #[arg(long, default_value_t = 50)]
     samples_per_trajectory: usize,
-    /// Only this system (`linear_2d` or `rigid_body_so3`).
-    #[arg(long)]
+    /// Only this system (`linear_2d` or `rigid_body_so3`); default: both.
+    #[arg(long, value_parser = ["linear_2d", "rigid_body_so3"])]
     system: Option<String>,
     /// Only the rows whose label contains this text (e.g. `weak`).
     #[arg(long)]

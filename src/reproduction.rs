@@ -20,10 +20,11 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
     identifiability, identify_resume_with_observer, identify_with_observer, simulate, synthesize,
-    CheckpointConfig, FlatDirection, Gauge, History, Identifiability, IdentifiabilityOptions,
-    InitialStates, IterationRecord, IterationScheme, L1Formulation, OutputTimes, SampleTimes,
-    SearchOptions, Simulation, SimulationOptions, SolveStatus, SolverBackend, SolverSettings,
-    StopReason, SynthesisOptions, SyntheticData, TrustRegion, WriteMode,
+    write_file, CheckpointConfig, FlatDirection, Gauge, History, Identifiability,
+    IdentifiabilityOptions, InitialStates, IterationRecord, IterationScheme, L1Formulation,
+    OutputTimes, SampleTimes, SearchOptions, Simulation, SimulationOptions, SolveStatus,
+    SolverBackend, SolverSettings, StopReason, SynthesisOptions, SyntheticData, TrustRegion,
+    WriteMode,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -682,8 +683,7 @@ fn write_model_and_history<S: MetriplecticSystem>(
 ) -> Result<(), ReproductionError> {
     let mut text = Vec::new();
     history.write_csv(&mut text)?;
-    let path = out.join("history.csv");
-    fs::write(&path, text).map_err(io_error(&path))?;
+    write_file(&out.join("history.csv"), &text, WriteMode::Overwrite)?;
     model.save(out.join("model.json"), WriteMode::Overwrite)?;
     Ok(())
 }
@@ -695,7 +695,11 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), ReproductionEr
             source: e,
         })
     })?;
-    fs::write(path, text + "\n").map_err(io_error(path))
+    Ok(write_file(
+        path,
+        (text + "\n").as_bytes(),
+        WriteMode::Overwrite,
+    )?)
 }
 
 /// A progress bar over `iterations` on stderr, hidden when `quiet` or when

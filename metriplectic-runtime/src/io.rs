@@ -64,14 +64,30 @@ pub(crate) fn read_capped(path: &Path, limit: u64, what: &str) -> Result<String>
 /// Writes `bytes` to `path` so that nothing is ever half-written: a reader
 /// (or a crash, or a full disk) sees either the previous file or the
 /// complete new one. [`WriteMode::CreateNew`] refuses an existing file with
-/// [`Error::FileExists`]; [`WriteMode::Overwrite`] replaces it.
+/// [`Error::FileExists`]; [`WriteMode::Overwrite`] replaces it. The
+/// directory must exist; a `path` that is a directory is
+/// [`Error::InvalidArgument`], any other failure [`Error::Io`].
 ///
 /// The bytes go to a temporary file in the same directory (same file
 /// system), are flushed to disk, and only then take the name: by an atomic
 /// rename when overwriting, by a hard link (which fails if the name exists)
 /// when creating. On file systems without hard links the new file is
 /// created exclusively and filled, and removed again if writing fails.
-pub(crate) fn write_file(path: &Path, bytes: &[u8], mode: WriteMode) -> Result<()> {
+///
+/// ```
+/// use metriplectic_runtime::{write_file, Error, WriteMode};
+/// let path = std::env::temp_dir().join(format!("write-file-doc-{}.txt", std::process::id()));
+/// write_file(&path, b"first", WriteMode::CreateNew)?;
+/// assert!(matches!(
+///     write_file(&path, b"again", WriteMode::CreateNew),
+///     Err(Error::FileExists { .. })
+/// ));
+/// write_file(&path, b"second", WriteMode::Overwrite)?;
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "second");
+/// # std::fs::remove_file(&path).unwrap();
+/// # Ok::<(), Error>(())
+/// ```
+pub fn write_file(path: &Path, bytes: &[u8], mode: WriteMode) -> Result<()> {
     let io = |path: &Path| {
         let path = path.to_owned();
         move |source| Error::Io { path, source }

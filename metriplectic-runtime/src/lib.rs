@@ -118,7 +118,7 @@ pub use identify::{
     SearchOptions, SearchReport, SosBasis, Stagnation, StepOutcome, StepRecord, StopReason,
     Support, TrustRegion, Validation,
 };
-pub use io::WriteMode;
+pub use io::{write_file, WriteMode};
 pub use metriplectic_macros::metriplectic;
 pub use model::{CertificateCheck, GramCertificate, GramMatrix, Model, Score};
 #[cfg(feature = "plot")]

@@ -1,13 +1,13 @@
 //! The output directory: checked before the run, written file by file
 //! without replacing what the user has unless asked, and the figures.
 
-use std::fs::{self, OpenOptions};
-use std::io::Write;
+use std::fs;
 use std::path::Path;
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    phase_portrait_2d, trajectories_3d, trajectory_overlay, Identification, Labels, Simulation,
+    phase_portrait_2d, trajectories_3d, trajectory_overlay, write_file, Identification, Labels,
+    Simulation, WriteMode,
 };
 
 use super::validation::{smooth_simulation, trajectory_label, Validation};
@@ -184,7 +184,8 @@ impl Context<'_> {
     }
 }
 
-/// Writes `out/name`, refusing to replace a file unless `overwrite`.
+/// Writes `out/name` whole or not at all (through a temporary file),
+/// refusing to replace a file unless `overwrite`.
 pub(super) fn write_output(
     out: &Path,
     name: &str,
@@ -192,19 +193,13 @@ pub(super) fn write_output(
     overwrite: bool,
 ) -> Result<(), FromCsvError> {
     let path = out.join(name);
-    let mut open = OpenOptions::new();
-    open.write(true);
-    if overwrite {
-        open.create(true).truncate(true);
+    let mode = if overwrite {
+        WriteMode::Overwrite
     } else {
-        open.create_new(true);
-    }
-    let mut file = open.open(&path).map_err(|err| {
-        if err.kind() == std::io::ErrorKind::AlreadyExists {
-            FromCsvError::OutputExists(path.clone())
-        } else {
-            io_error(&path)(err)
-        }
-    })?;
-    file.write_all(bytes).map_err(io_error(&path))
+        WriteMode::CreateNew
+    };
+    write_file(&path, bytes, mode).map_err(|err| match err {
+        metriplectic_runtime::Error::FileExists { path } => FromCsvError::OutputExists(path),
+        other => other.into(),
+    })
 }
