@@ -44,7 +44,8 @@ pub struct Options {
     /// Iteration cap [default: the paper's count for the experiment].
     #[arg(long)]
     pub iterations: Option<usize>,
-    /// Stop when the minibatch's mean absolute residual reaches this.
+    /// Stop when the mean absolute residual per component on the training
+    /// data reaches this times their mean |ẋ| (a relative tolerance).
     #[arg(long, default_value_t = 1e-9)]
     pub tolerance: f64,
     /// Output directory (default: `target/paper/<experiment>`).
@@ -67,7 +68,9 @@ pub struct Options {
     pub samples_per_trajectory: usize,
     /// Iteration scheme: `joint` adds a joint linearised trust-region step to
     /// each iteration of Algorithm 2 (our addition; it keeps the cost
-    /// non-increasing); `alternating` is the paper's Algorithm 2 exactly.
+    /// non-increasing); `alternating` is the paper's alternation of Algorithm
+    /// 2 without it (the stopping rules and the choice of the best-scoring
+    /// model stay this toolkit's).
     #[arg(long, value_enum, default_value_t = Scheme::Joint)]
     pub scheme: Scheme,
     /// Solver of the subproblems: the runtime's dense interior-point method,

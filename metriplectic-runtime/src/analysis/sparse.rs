@@ -21,8 +21,8 @@ use crate::system::MetriplecticSystem;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SparseOptions {
-    /// Relative thresholds τ tried, each in (0, 1). Default eight values
-    /// from 1e-5 to 1e-1, three per decade.
+    /// Relative thresholds τ tried, each in (0, 1). Default nine values
+    /// from 1e-5 to 1e-1, two per decade (1 and 3 times a power of ten).
     pub thresholds: Vec<f64>,
     /// A sparser model is preferred while its validation cost is at most
     /// (1 + `parsimony`) times the best candidate's (the dense fit is a

@@ -346,20 +346,21 @@ impl IdentifyConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TrustRegion {
-    /// Δ of the first joint step.
+    /// Δ of the first joint step. Default 0.1.
     pub initial_radius: f64,
-    /// Upper limit of Δ.
+    /// Upper limit of Δ. Default 10.
     pub max_radius: f64,
     /// Lower limit of Δ (a minibatch may reject a step that another accepts,
-    /// so Δ is not allowed to collapse to zero).
+    /// so Δ is not allowed to collapse to zero). Default 1e-10.
     pub min_radius: f64,
-    /// Factor applied to Δ after a good step (> 1).
+    /// Factor applied to Δ after a good step (> 1). Default 2.
     pub grow: f64,
-    /// Factor applied to Δ after a poor, rejected or failed step (in (0, 1)).
+    /// Factor applied to Δ after a poor, rejected or failed step (in
+    /// (0, 1)). Default 0.25.
     pub shrink: f64,
-    /// ρ at or above which a step counts as good.
+    /// ρ at or above which a step counts as good. Default 0.75.
     pub good_ratio: f64,
-    /// ρ below which a step counts as poor.
+    /// ρ below which a step counts as poor. Default 0.25.
     pub poor_ratio: f64,
     /// Whether a step that gained less than `good_ratio` of its prediction
     /// is solved again with the second-order correction (the bilinear term

@@ -281,8 +281,13 @@ impl History {
 /// Why [`identify`](crate::identify) stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum StopReason {
-    /// The batch cost per component reached the tolerance (relative to the
-    /// batch's mean |ẋ|).
+    /// The cost per component reached the tolerance, relative to the
+    /// scored samples' mean |ẋ|: the validation samples when there are any
+    /// (all the data under the default [`Validation::AllData`]), otherwise
+    /// the batch ([`IdentifyConfig::tolerance`]).
+    ///
+    /// [`Validation::AllData`]: crate::Validation::AllData
+    /// [`IdentifyConfig::tolerance`]: crate::IdentifyConfig::tolerance
     Converged,
     /// The run stopped improving: its score did not improve for the
     /// configured window of iterations.

@@ -95,15 +95,16 @@ pub use crate::error::PlotError;
 /// Labels may use Unicode (Greek letters, −, ², subscripts, ∇, ≤ …).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Labels<'a> {
-    /// Caption above the figure; empty for none.
+    /// Caption above the figure; empty for none (the default).
     pub title: &'a str,
-    /// Name of the first (horizontal) axis.
+    /// Name of the first (horizontal) axis. Default `"x"`.
     pub x: &'a str,
-    /// Name of the second axis.
+    /// Name of the second axis. Default `"y"`.
     pub y: &'a str,
-    /// Name of the third axis (3-D figures only).
+    /// Name of the third axis (3-D figures only). Default `"z"`.
     pub z: &'a str,
-    /// Legend entry of the reference curve or surface (e.g. "zero set of E").
+    /// Legend entry of the reference curve or surface (e.g. "zero set of
+    /// E"). Default `"E = 0"`.
     pub reference: &'a str,
 }
 

@@ -32,9 +32,10 @@ pub struct IntegratorOptions {
     /// Absolute tolerance of the local error estimate (> 0); 1e-9 by
     /// default.
     pub atol: f64,
-    /// Maximal number of step attempts (accepted and rejected).
+    /// Maximal number of step attempts (accepted and rejected); 100 000 by
+    /// default.
     pub max_steps: u32,
-    /// Largest step size; `None` means the whole interval.
+    /// Largest step size; `None` (the default) means the whole interval.
     pub max_step: Option<f64>,
 }
 
@@ -49,7 +50,7 @@ impl Default for IntegratorOptions {
     }
 }
 
-/// Where the solution is reported.
+/// Where the solution is reported. Default [`Steps`](Self::Steps).
 ///
 /// ```
 /// use metriplectic_runtime::OutputTimes;
@@ -60,7 +61,7 @@ impl Default for IntegratorOptions {
 /// ```
 #[derive(Debug, Clone, PartialEq, Default)]
 pub enum OutputTimes {
-    /// The initial time and every accepted step.
+    /// The initial time and every accepted step (the default).
     #[default]
     Steps,
     /// t₀, t₀ + Δ, t₀ + 2Δ, … up to t_end (Δ > 0), from the dense output.

@@ -137,9 +137,9 @@ pub enum SampleTimes {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Noise {
-    /// σ of the noise added to every state component.
+    /// σ of the noise added to every state component. Default 0.
     pub state_std: f64,
-    /// σ of the noise added to every derivative component.
+    /// σ of the noise added to every derivative component. Default 0.
     pub derivative_std: f64,
 }
 
