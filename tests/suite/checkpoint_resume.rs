@@ -8,7 +8,7 @@ use crate::common::*;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
     identify, identify_resume, identify_with_observer, CheckpointConfig, History, IdentifyConfig,
-    IterationScheme, SearchOptions, StopReason, TrustRegion,
+    IterationScheme, SearchOptions, Stagnation, StopReason, TrustRegion, Validation,
 };
 
 /// A fresh scratch directory for one test.
@@ -338,4 +338,99 @@ fn a_converged_checkpoint_resumes_as_converged_without_iterating() {
     assert_eq!(resumed.history, first.history);
     assert_eq!(resumed.model, first.model);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A scoring minibatch run that stopped by itself: the checkpoint holds the
+/// state before the run's end, so resuming it must end it the same way,
+/// with the best model, the polish iteration and their certificate.
+#[test]
+fn a_stopped_scoring_run_resumes_to_the_same_polished_result() {
+    let dir = scratch("stopped-scoring");
+    let data = linear2d_data(40, 11);
+    let path = dir.join("checkpoint.json");
+    let config = IdentifyConfig {
+        validation: Validation::AllData,
+        polish: true,
+        // Demands a 90% gain every two iterations: stops within the cap.
+        stagnation: Some(Stagnation {
+            window: 2,
+            relative_improvement: 0.9,
+        }),
+        max_iterations: 8,
+        ..config(Some(&path))
+    };
+    let first = identify::<Linear2d>(&data, &config).unwrap();
+    assert_eq!(first.stop_reason, StopReason::Stagnated);
+    let last = first.history.iterations.last().unwrap();
+    assert!(last.polish, "the run ends with its polish");
+    let resumed = identify_resume::<Linear2d>(&path, &data, &config).unwrap();
+    assert_eq!(resumed.stop_reason, StopReason::Stagnated);
+    assert_eq!(
+        without_timings(&resumed.history),
+        without_timings(&first.history)
+    );
+    assert_eq!(resumed.model, first.model);
+    assert_eq!(resumed.model.certificate(), first.model.certificate());
+    assert!(first.model.certificate().is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A run resumed mid-way keeps the Gram certificate its model had.
+#[test]
+fn a_resumed_model_keeps_its_gram_certificate() {
+    let dir = scratch("certificate");
+    let data = linear2d_data(40, 12);
+    let path = dir.join("checkpoint.json");
+    let config = config(Some(&path));
+    let stopped = identify_with_observer::<Linear2d, _>(&data, &config, |record, _| {
+        if record.iteration == 3 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    assert_eq!(stopped.stop_reason, StopReason::Interrupted);
+    let resumed = identify_resume::<Linear2d>(
+        &path,
+        &data,
+        &IdentifyConfig {
+            max_iterations: 3,
+            ..config.clone()
+        },
+    )
+    .unwrap();
+    assert_eq!(resumed.model, stopped.model);
+    assert!(stopped.model.certificate().is_some());
+    assert_eq!(resumed.model.certificate(), stopped.model.certificate());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A stop asked for during a warm-up whose solves all fail still stops the
+/// run: it used to start over on all the data, calling the observer again.
+#[test]
+fn a_stop_asked_for_in_a_failed_warm_up_is_honoured() {
+    let data = linear2d_data(500, 13);
+    let config = IdentifyConfig {
+        start_samples: 200,
+        max_iterations: 6,
+        max_failed_iterations: 1,
+        search: SearchOptions {
+            solver: metriplectic_runtime::SolverSettings {
+                max_iter: 1,
+                ..Default::default()
+            },
+            ..SearchOptions::default()
+        },
+        ..alternation()
+    };
+    let mut calls = 0;
+    let result = identify_with_observer::<Linear2d, _>(&data, &config, |record, _| {
+        calls += 1;
+        assert!(record.warm_up, "only the warm-up runs");
+        ControlFlow::Break(())
+    })
+    .unwrap();
+    assert_eq!(calls, 1);
+    assert_eq!(result.stop_reason, StopReason::Interrupted);
 }

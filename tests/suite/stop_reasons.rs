@@ -168,3 +168,34 @@ fn a_run_cut_short_while_improving_says_so() {
         .iter()
         .any(|w| matches!(w, IdentifyWarning::StillImproving { .. })));
 }
+
+/// `Validation::HeldOut` keeps its samples out of every batch, the final
+/// polish included: the polish fits the pool only, so the score that
+/// decides whether it is kept stays out of sample.
+#[test]
+fn the_polish_never_fits_held_out_samples() {
+    let data = linear2d_data(50, 5);
+    let config = IdentifyConfig {
+        batch_size: Some(20),
+        max_iterations: 2,
+        validation: metriplectic_runtime::Validation::HeldOut { fraction: 0.2 },
+        polish: true,
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    let last = result.history.iterations.last().unwrap();
+    assert!(last.polish);
+    assert_eq!(last.batch_size, 40, "50 samples, 10 held out");
+}
+
+/// Targets whose magnitudes add up beyond f64 make every cost infinite,
+/// which used to compare as converged; they are refused with their size.
+#[test]
+fn targets_beyond_the_range_of_f64_are_refused() {
+    let data =
+        Dataset::from_flat(2, vec![1.0, 1.0, 0.5, 0.5], vec![1e308, 1e308, 1e308, 0.0]).unwrap();
+    let err = identify::<Linear2d>(&data, &IdentifyConfig::default()).unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("beyond the range of f64"), "{text}");
+    assert!(text.contains("1e308"), "{text}");
+}

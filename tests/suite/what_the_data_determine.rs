@@ -395,8 +395,16 @@ fn the_analyses_check_their_inputs_and_fit_their_starts_to_each_support() {
         .position(|e| e == &[6, 0])
         .unwrap();
     start[x6] = 0.01;
+    // The user's own run's checkpoint: the refits must leave it alone.
+    let dir = crate::common::scratch_dir("analyses", "checkpoint");
+    let checkpoint = dir.join("checkpoint.json");
+    std::fs::write(&checkpoint, "the user's run").unwrap();
     let config = IdentifyConfig {
         initial_entropy: Some(start),
+        checkpoint: Some(metriplectic_runtime::CheckpointConfig {
+            path: checkpoint.clone(),
+            every: 1,
+        }),
         ..IdentifyConfig::default()
     };
     let options = DegreeOptions {
@@ -412,4 +420,9 @@ fn the_analyses_check_their_inputs_and_fit_their_starts_to_each_support() {
         "{:#?}",
         selection.candidates
     );
+    assert_eq!(
+        std::fs::read_to_string(&checkpoint).unwrap(),
+        "the user's run"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }

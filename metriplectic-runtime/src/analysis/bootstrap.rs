@@ -104,6 +104,8 @@ const MAX_REPLICATES: usize = 100_000;
 /// start every replicate near it, and a gauge when the data fix K only up to
 /// scale (else the intervals measure the arbitrary scale). Errors on fewer
 /// than two groups, invalid options, or if every replicate fails.
+/// `config.checkpoint` is ignored: the replicates run in parallel and must
+/// not replace the checkpoint of the user's own run.
 pub fn bootstrap<S: MetriplecticSystem, D: IdentificationData>(
     groups: &[D],
     config: &IdentifyConfig,
@@ -131,6 +133,10 @@ pub fn bootstrap<S: MetriplecticSystem, D: IdentificationData>(
             format!("{} is not in (0, 1)", options.level),
         ));
     }
+    let config = &IdentifyConfig {
+        checkpoint: None,
+        ..config.clone()
+    };
     let results: Vec<Result<Model<S>>> = (0..options.replicates)
         .into_par_iter()
         .map(|b| {

@@ -70,7 +70,8 @@ pub struct DegreeSelection<S: MetriplecticSystem> {
 /// of the best: the degrees the data need, from a declared maximum above them.
 ///
 /// Errors on a cap above the declared degree, invalid data or options, or
-/// an identification that fails outright.
+/// an identification that fails outright. The refits write no checkpoint
+/// (`config.checkpoint` is ignored), so that of the user's own run stays.
 pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
     train: &D,
     validation: &D,

@@ -30,6 +30,9 @@ pub(crate) fn refit<S: MetriplecticSystem>(
         .clone()
         .with_zeros(support.entropy_zeros(), support.metric_zeros());
     let mut restricted = config.clone();
+    // A refit is one of many runs: it must not replace the checkpoint of
+    // the user's own run at `config.checkpoint`.
+    restricted.checkpoint = None;
     let (entropy, metric) = match start {
         Some(start) => (
             Some(start.entropy_coefficients()),

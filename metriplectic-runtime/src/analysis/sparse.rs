@@ -70,6 +70,8 @@ pub struct Sparsification<S: MetriplecticSystem> {
 ///
 /// Errors on invalid options or data, or if a refit fails outright (a refit
 /// that ends early is still a candidate, judged by its validation cost).
+/// The refits write no checkpoint (`config.checkpoint` is ignored), so that
+/// of the user's own run stays.
 pub fn sparsify<S: MetriplecticSystem, D: IdentificationData>(
     dense: &Model<S>,
     train: &D,

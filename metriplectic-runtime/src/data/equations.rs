@@ -14,7 +14,7 @@
 
 use rayon::prelude::*;
 
-use crate::error::{Error, Result};
+use crate::error::{invalid, Error, Result};
 use crate::system::MetriplecticSystem;
 
 /// Data identification can fit: samples with derivatives ([`Dataset`](crate::Dataset))
@@ -193,13 +193,25 @@ impl<'a> Equations<'a> {
 
 /// Errors unless `data` has the system's state dimension.
 pub(crate) fn check_dataset<S: MetriplecticSystem>(data: &impl IdentificationData) -> Result<()> {
-    if data.dim() == S::DIM {
-        Ok(())
-    } else {
-        Err(Error::DimensionMismatch {
+    if data.dim() != S::DIM {
+        return Err(Error::DimensionMismatch {
             what: format!("dataset state dimension for system `{}`", S::NAME),
             expected: S::DIM,
             found: data.dim(),
-        })
+        });
     }
+    // Every cost is a sum of |residual|s of this size: one beyond f64
+    // would be infinite, and an infinite cost compares as converged.
+    let targets = data.equations().targets;
+    if !targets.iter().map(|v| v.abs()).sum::<f64>().is_finite() {
+        let largest = targets.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        return Err(invalid(
+            "identification data",
+            format!(
+                "the targets' magnitudes add up beyond the range of f64 (largest {largest:e}); \
+                 rescale the data (e.g. change units)"
+            ),
+        ));
+    }
+    Ok(())
 }

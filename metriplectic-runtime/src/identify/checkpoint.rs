@@ -27,7 +27,7 @@ use super::state::RunState;
 use crate::data::IdentificationData;
 use crate::error::{Error, Result};
 use crate::io::{read_capped, write_file, WriteMode};
-use crate::model::Model;
+use crate::model::{GramCertificate, Model};
 use crate::system::MetriplecticSystem;
 
 /// Where and how often [`identify`](crate::identify) saves checkpoints.
@@ -137,6 +137,13 @@ struct CheckpointFile {
     /// The best-scoring model so far (entropy, metric) and its score.
     best: Option<(Vec<f64>, Vec<f64>, Cost)>,
     since_improvement: usize,
+    /// The Gram certificates of the current and the best model, so that a
+    /// resumed run returns the proof an uninterrupted one would (absent
+    /// from checkpoints of earlier versions: read as none).
+    #[serde(default)]
+    certificate: Option<GramCertificate>,
+    #[serde(default)]
+    best_certificate: Option<GramCertificate>,
 }
 
 /// The configuration as the fingerprint compares it: the iteration cap may
@@ -186,6 +193,11 @@ pub(crate) fn save<S: MetriplecticSystem>(
             )
         }),
         since_improvement: state.since_improvement,
+        certificate: state.model.certificate().cloned(),
+        best_certificate: state
+            .best
+            .as_ref()
+            .and_then(|(model, _)| model.certificate().cloned()),
     };
     let json = serde_json::to_string(&file).map_err(|source| Error::Json {
         context: Some(path.display().to_string()),
@@ -284,9 +296,21 @@ pub(crate) fn load<S: MetriplecticSystem>(
             )));
         }
     }
-    let model = Model::<S>::new(file.entropy, file.metric)?;
+    // The metric is certified anew either way; a kept certificate must fit
+    // the system's blocks.
+    let certified = |model: Model<S>, certificate: Option<GramCertificate>| match certificate {
+        Some(certificate) => model.with_certificate(certificate),
+        None => Ok(model),
+    };
+    let model = certified(
+        Model::<S>::new(file.entropy, file.metric)?,
+        file.certificate,
+    )?;
     let best = match file.best {
-        Some((entropy, metric, cost)) => Some((Model::<S>::new(entropy, metric)?, cost)),
+        Some((entropy, metric, cost)) => Some((
+            certified(Model::<S>::new(entropy, metric)?, file.best_certificate)?,
+            cost,
+        )),
         None => None,
     };
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed);

@@ -208,19 +208,14 @@ where
     check_dataset::<S>(data)?;
     config.validate::<S>(data.equation_count())?;
     let state = checkpoint::load::<S>(path.as_ref(), data, config)?;
+    let split = Split::new(data, config)?;
     match state.stopped {
-        Some(
-            reason @ (StopReason::Converged | StopReason::Stagnated | StopReason::SolverFailures),
-        ) => {
-            let warnings = data_warnings(data, &state.model, config)?;
-            Ok(Identification {
-                model: state.model,
-                history: state.history,
-                stop_reason: reason,
-                warnings,
-            })
+        // The checkpoint holds the state before `finish`, so finishing it
+        // again gives the uninterrupted run's result (best model, polish).
+        Some(StopReason::Converged | StopReason::Stagnated | StopReason::SolverFailures) => {
+            finish(data, config, &split, state)
         }
-        _ => run(data, config, &Split::new(data, config)?, state, observer),
+        _ => run(data, config, &split, state, observer),
     }
 }
 
@@ -276,11 +271,14 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
         );
     if polishing {
         let best = state.best.clone();
-        let (cost_before, metric, entropy, joint) = iterate_on(data, config, &mut state, false)?;
+        // On the pool: held-out samples never enter a batch, the polish's
+        // neither, so that its score stays out of sample.
+        let (cost_before, metric, entropy, joint) =
+            iterate_on(&split.pool, config, &mut state, false)?;
         let score = model_cost(&state.model, split.validation.as_ref().unwrap_or(data))?;
         state.history.iterations.push(IterationRecord {
             iteration: state.history.iterations.len() + 1,
-            batch_size: data.equation_count(),
+            batch_size: split.pool.equation_count(),
             cost_before,
             metric,
             entropy,

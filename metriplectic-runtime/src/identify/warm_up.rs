@@ -42,7 +42,8 @@ const WARM_UP_PROGRESS: f64 = 0.5;
 /// the iteration budget. Returns the state the run on all the data starts
 /// from: the model reached, the trust radius, the warm-up's records, and
 /// nothing of its scores (those were on the subsample). If no step of the
-/// warm-up could be solved, the run starts from `state` as it was.
+/// warm-up could be solved, the run starts from `state` as it was (or
+/// stops there, if the observer asked it to).
 pub(super) fn warm_up<S, D, F>(
     sample: &D,
     config: &IdentifyConfig,
@@ -81,7 +82,11 @@ where
             stopped: interrupted.then_some(StopReason::Interrupted),
             ..RunState::start(warm.model, config)
         }),
-        Err(Error::IdentificationFailed { .. }) => Ok(RunState::start(start, config)),
+        // A stop asked for still ends the run; only the failed records go.
+        Err(Error::IdentificationFailed { .. }) => Ok(RunState {
+            stopped: interrupted.then_some(StopReason::Interrupted),
+            ..RunState::start(start, config)
+        }),
         Err(error) => Err(error),
     }
 }

@@ -31,7 +31,8 @@ pub enum SolverBackend {
 pub struct SolverSettings {
     /// Interior-point iteration limit per solve. Default 200.
     pub max_iter: u32,
-    /// Wall-clock limit per solve in seconds. Default `None` (unlimited).
+    /// Wall-clock limit per solve in seconds, finite and positive. Default
+    /// `None` (unlimited).
     pub time_limit: Option<f64>,
     /// Absolute duality-gap tolerance. Default 1e-8.
     pub tol_gap_abs: f64,
@@ -81,10 +82,14 @@ impl SolverSettings {
             }
         }
         if let Some(limit) = self.time_limit {
-            if limit.is_nan() || limit <= 0.0 {
+            // Infinity too: JSON has no infinity, so a checkpoint would read
+            // it back as `None` and no longer match the run.
+            if !(limit.is_finite() && limit > 0.0) {
                 return Err(invalid(
                     "solver time_limit",
-                    format!("{limit} is not a positive number of seconds"),
+                    format!(
+                        "{limit} is not a finite positive number of seconds (`None` is no limit)"
+                    ),
                 ));
             }
         }
@@ -118,5 +123,24 @@ mod tests {
         assert_eq!(ours.tol_gap_abs, theirs.tol_gap_abs);
         assert_eq!(ours.tol_gap_rel, theirs.tol_gap_rel);
         assert_eq!(ours.tol_feas, theirs.tol_feas);
+    }
+
+    /// An infinite limit would be written to a checkpoint as `null` and
+    /// read back as `None`, so that the run no longer matched its own file.
+    #[test]
+    fn time_limits_must_be_finite_and_positive() {
+        for limit in [f64::INFINITY, f64::NAN, 0.0, -1.0] {
+            let settings = SolverSettings {
+                time_limit: Some(limit),
+                ..SolverSettings::default()
+            };
+            let error = settings.validate().unwrap_err().to_string();
+            assert!(error.contains("time_limit"), "{limit}: {error}");
+        }
+        let settings = SolverSettings {
+            time_limit: Some(1e9),
+            ..SolverSettings::default()
+        };
+        settings.validate().unwrap();
     }
 }
