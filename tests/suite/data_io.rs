@@ -638,6 +638,20 @@ fn sizes_beyond_memory_and_overflowing_estimates_are_errors_not_aborts() {
             },
             "number of trajectories",
         ),
+        // 10⁸ samples in all, but as 10⁸ trajectories of one sample: each
+        // is an integration and allocations of its own.
+        (
+            SynthesisOptions {
+                trajectories: 100_000_000,
+                held_out_trajectories: 0,
+                times: SampleTimes::LogUniform {
+                    count: 1,
+                    first: 1e-3,
+                },
+                ..synthesis_options(1)
+            },
+            "must be between 1 and 10⁶",
+        ),
         (
             SynthesisOptions {
                 times: SampleTimes::LogUniform {

@@ -261,6 +261,14 @@ impl GramCertificate {
             .flat_map(|q| q.values.iter())
             .fold(self.eta.abs(), |m, v| m.max(v.abs()))
             .max(f64::MIN_POSITIVE);
+        // NaN would pass every comparison below (f64::min and max skip it).
+        let values = self.lower.iter().chain(&self.upper).flat_map(|q| &q.values);
+        if !(self.eta.is_finite() && values.clone().all(|v| v.is_finite())) {
+            return Ok(CertificateCheck {
+                identity_residual: f64::INFINITY,
+                smallest_eigenvalue: f64::NEG_INFINITY,
+            });
+        }
         let mut smallest = f64::INFINITY;
         for q in self.lower.iter().chain(&self.upper) {
             let matrix = DMatrix::from_row_slice(q.size, q.size, &q.values);
@@ -440,5 +448,40 @@ mod tests {
                 assert!((direct - k[j * 2 + l]).abs() < 1e-12);
             }
         }
+    }
+
+    /// A Gram matrix of NaN used to drop out of both checks (f64::min and
+    /// max skip NaN), so the certificate "held".
+    #[test]
+    fn a_certificate_with_nan_entries_never_holds() {
+        let layout = Layout::of::<Quadratic2d>(Quadratic2d::SOS_FULL);
+        let identity = |block: &BlockLayout| {
+            let size = block.size(2);
+            let mut values = vec![0.0; size * size];
+            (0..size).for_each(|i| values[i * size + i] = 1.0);
+            GramMatrix { size, values }
+        };
+        let lower: Vec<GramMatrix> = layout.lower.iter().map(identity).collect();
+        let upper: Vec<GramMatrix> = layout.upper.iter().map(identity).collect();
+        let theta = theta_from_gram::<Quadratic2d>(&layout, &lower);
+        let valid = GramCertificate {
+            eta: 1.0,
+            lower: lower.clone(),
+            upper,
+        };
+        assert!(
+            valid
+                .check_with::<Quadratic2d>(&layout, &theta)
+                .unwrap()
+                .smallest_eigenvalue
+                >= 0.0
+        );
+        let mut broken = valid.clone();
+        broken.lower[0]
+            .values
+            .iter_mut()
+            .for_each(|v| *v = f64::NAN);
+        let check = broken.check_with::<Quadratic2d>(&layout, &theta).unwrap();
+        assert!(!check.holds(1e-8), "{check:?}");
     }
 }

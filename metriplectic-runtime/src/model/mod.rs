@@ -88,6 +88,15 @@ impl<S: MetriplecticSystem> Model<S> {
     /// K(x) = Z(x)ᵀ Q Z(x), Q ⪰ 0, which the constructor searches for;
     /// [`Error::MetricNotCertified`] if none is found.
     ///
+    /// Both checks are numerical, with tolerances at the level of the
+    /// solvers' accuracy: a constant metric's smallest eigenvalue may be
+    /// −1e-10 of its largest entry, and a certificate's Gram matrix may need
+    /// a shift s of up to 1e-8 of the metric's largest coefficient, so that
+    /// an accepted metric satisfies K(x) ⪰ −s‖Z(x)‖²I. That bound grows with
+    /// the monomials Z(x) far from where the coefficients are of one size
+    /// (K₀₀ = 1 − 9e-9·q² passes and is negative beyond |q| ≈ 1.05e4);
+    /// [`simulate`](crate::simulate) checks E along every trajectory.
+    ///
     /// ```
     /// # use metriplectic_runtime::prelude::*;
     /// # metriplectic! {

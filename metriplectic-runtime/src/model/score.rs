@@ -98,27 +98,61 @@ impl<S: MetriplecticSystem> Model<S> {
 
 fn score(n: usize, predictions: &[f64], targets: &[f64]) -> Score {
     let count = targets.len() / n.max(1);
+    // Everything in units of the largest magnitude, so that the squares of
+    // finite values beyond 1e154 do not overflow into ∞/∞ = NaN.
+    let unit = predictions
+        .iter()
+        .chain(targets)
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let unit = if unit > 0.0 && unit.is_finite() {
+        unit
+    } else {
+        1.0
+    };
     let mut means = vec![0.0; n];
     for row in targets.chunks_exact(n) {
         means
             .iter_mut()
             .zip(row)
-            .for_each(|(m, t)| *m += t / count as f64);
+            .for_each(|(m, t)| *m += t / unit / count as f64);
     }
     let (mut residual2, mut target2, mut spread2, mut absolute) = (0.0, 0.0, 0.0, 0.0);
     for (prediction, target) in predictions.chunks_exact(n).zip(targets.chunks_exact(n)) {
-        for j in 0..n {
-            let r = prediction[j] - target[j];
+        let (prediction, target) = (
+            prediction.iter().map(|p| p / unit),
+            target.iter().map(|t| t / unit),
+        );
+        for (j, (prediction, target)) in prediction.zip(target).enumerate() {
+            let r = prediction - target;
             residual2 += r * r;
             absolute += r.abs();
-            target2 += target[j] * target[j];
-            spread2 += (target[j] - means[j]).powi(2);
+            target2 += target * target;
+            spread2 += (target - means[j]).powi(2);
         }
     }
     Score {
         relative_error: (residual2 / target2).sqrt(),
-        mean_abs_residual: absolute / targets.len().max(1) as f64,
+        mean_abs_residual: absolute / targets.len().max(1) as f64 * unit,
         r_squared: 1.0 - residual2 / spread2,
         equations: count,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::score;
+
+    #[test]
+    fn scores_of_values_whose_squares_overflow_are_finite() {
+        // Residuals (1, 0) against targets (1, 1), in units of 1e200.
+        let huge = score(1, &[2e200, 1e200], &[1e200, 1e200]);
+        assert!((huge.relative_error - 0.5_f64.sqrt()).abs() < 1e-15);
+        assert!((huge.mean_abs_residual - 0.5e200).abs() < 1e185);
+        // The targets do not vary: R² is -∞ for an inexact fit, not NaN.
+        assert_eq!(huge.r_squared, f64::NEG_INFINITY);
+        // The same numbers at ordinary size give the same score.
+        let small = score(1, &[2.0, 1.0], &[1.0, 1.0]);
+        assert_eq!(small.relative_error, huge.relative_error);
+        assert_eq!(small.mean_abs_residual, 0.5);
     }
 }

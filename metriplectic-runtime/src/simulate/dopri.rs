@@ -30,7 +30,8 @@ pub struct IntegratorOptions {
     /// 1e-6 by default.
     pub rtol: f64,
     /// Absolute tolerance of the local error estimate (> 0); 1e-9 by
-    /// default.
+    /// default. The free-energy check allows for this error, so an `atol`
+    /// near the states' own size leaves it nothing to detect.
     pub atol: f64,
     /// Maximal number of step attempts (accepted and rejected); 100 000 by
     /// default.

@@ -178,7 +178,7 @@ pub struct Outliers {
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SynthesisOptions {
-    /// Number of trajectories (≥ 1; at most 10⁸ samples in all).
+    /// Number of trajectories (1 to 10⁶; at most 10⁸ samples in all).
     pub trajectories: usize,
     /// Duration of each trajectory (> 0).
     pub duration: f64,
@@ -313,6 +313,24 @@ pub fn synthesize<S: MetriplecticSystem>(
                     error.to_string(),
                 )
             })?;
+        // Data whose free energy falls between samples are not data of a
+        // metriplectic system: the integration was too loose to trust.
+        let energy = &simulation.energy;
+        if let (false, Some(step)) = (energy.is_non_decreasing(), energy.worst_step) {
+            return Err(invalid(
+                &format!("synthetic trajectory {k} from initial state {x0:?}"),
+                format!(
+                    "the free energy fell by {:e} between samples {step} and {} ({} times the \
+                     integration error allows, {} of {} sample pairs); tighten the integrator \
+                     tolerances (rtol, atol)",
+                    energy.largest_decrease,
+                    step + 1,
+                    energy.largest_decrease_ratio,
+                    energy.violations,
+                    energy.steps
+                ),
+            ));
+        }
         trajectories.push(simulation.trajectory.with_id(k.to_string()));
     }
 
@@ -441,11 +459,18 @@ const MAX_SAMPLES_PER_TRAJECTORY: usize = 10_000_000;
 /// the allocation, not the options, would fail.
 const MAX_SAMPLES: usize = 100_000_000;
 
+/// Most trajectories synthesised: each is an integration and a few
+/// allocations of its own, whatever its sample count.
+const MAX_TRAJECTORIES: usize = 1_000_000;
+
 fn validate(options: &SynthesisOptions, dim: usize) -> Result<()> {
-    if options.trajectories == 0 {
+    if !(1..=MAX_TRAJECTORIES).contains(&options.trajectories) {
         return Err(invalid(
             "number of trajectories",
-            "must be at least 1".to_owned(),
+            format!(
+                "{} requested: must be between 1 and 10⁶",
+                options.trajectories
+            ),
         ));
     }
     if options.held_out_trajectories >= options.trajectories {
