@@ -199,3 +199,80 @@ fn targets_beyond_the_range_of_f64_are_refused() {
     assert!(text.contains("beyond the range of f64"), "{text}");
     assert!(text.contains("1e308"), "{text}");
 }
+
+/// Stagnation is judged on scores; a minibatch run without validation has
+/// none, and used to run to the cap with stagnation silently off.
+#[test]
+fn stagnation_without_scores_is_refused() {
+    let data = linear2d_data(50, 6);
+    let config = IdentifyConfig {
+        batch_size: Some(20),
+        validation: metriplectic_runtime::Validation::None,
+        ..IdentifyConfig::default()
+    };
+    let error = identify::<Linear2d>(&data, &config)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("cannot stagnate"), "{error}");
+    let config = IdentifyConfig {
+        stagnation: None,
+        max_iterations: 1,
+        ..config
+    };
+    identify::<Linear2d>(&data, &config).unwrap();
+}
+
+/// The default start metric lies in the support (the identity with the
+/// terms the support removes at zero), and a gauge the support makes
+/// impossible is refused instead of failing every metric step.
+#[test]
+fn the_default_start_metric_respects_the_support() {
+    use metriplectic_runtime::{Gauge, Support};
+    let data = linear2d_data(60, 7);
+    let basis = Linear2d::METRIC_EXPONENTS.len();
+    // Pairs (0,0), (0,1), (1,1): the constant terms of K₀₀ and K₁₁.
+    let (k00, k11) = (0, 2 * basis);
+    let config = IdentifyConfig {
+        max_iterations: 1,
+        search: SearchOptions {
+            support: Support::full().with_zeros(&[], &[k00]),
+            ..SearchOptions::default()
+        },
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    // Held to the searches' rounding (the identity's 1 before).
+    assert!(result.model.metric_coefficients()[k00].abs() < 1e-12);
+    let config = IdentifyConfig {
+        search: SearchOptions {
+            support: Support::full().with_zeros(&[], &[k00, k11]),
+            gauge: Some(Gauge::MetricTrace(2.0)),
+            ..SearchOptions::default()
+        },
+        ..config
+    };
+    let error = identify::<Linear2d>(&data, &config)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("every constant diagonal term"), "{error}");
+}
+
+/// Every search bounds |ψ| by η, so a start beyond it is refused by name.
+#[test]
+fn a_start_beyond_the_coefficient_bound_is_refused() {
+    let data = linear2d_data(30, 8);
+    let mut entropy = vec![0.0; Linear2d::entropy_coefficient_count()];
+    entropy[1] = 50.0;
+    let config = IdentifyConfig {
+        initial_entropy: Some(entropy),
+        search: SearchOptions {
+            eta: Some(20.0),
+            ..SearchOptions::default()
+        },
+        ..IdentifyConfig::default()
+    };
+    let error = identify::<Linear2d>(&data, &config)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("coefficient 1 is 5e1"), "{error}");
+}

@@ -41,7 +41,9 @@ pub struct IdentifyConfig {
     pub tolerance: f64,
     /// Stop when the run no longer improves
     /// ([`StopReason::Stagnated`](crate::StopReason::Stagnated)): noisy data
-    /// never reach the tolerance. `None` runs to the cap. Default
+    /// never reach the tolerance. `None` runs to the cap. It is judged on
+    /// the [`validation`](Self::validation) scores, so a minibatch run with
+    /// [`Validation::None`] must set it to `None`. Default
     /// [`Stagnation::default`].
     pub stagnation: Option<Stagnation>,
     /// Which samples score the model after each iteration of a minibatch run
@@ -264,6 +266,16 @@ impl IdentifyConfig {
                     format!("{delta} is not in [0, 1)"),
                 ));
             }
+            // Stagnation is judged on the scores; without them it would be
+            // silently off.
+            if self.batch_size.is_some() && self.validation == Validation::None {
+                return Err(invalid(
+                    "stagnation",
+                    "a minibatch run with Validation::None scores nothing, so it cannot \
+                     stagnate: set stagnation to None (run to the tolerance or the cap) or \
+                     choose Validation::AllData or HeldOut",
+                ));
+            }
         }
         if let Validation::HeldOut { fraction } = self.validation {
             if !(fraction > 0.0 && fraction < 1.0) {
@@ -300,6 +312,19 @@ impl IdentifyConfig {
         if let Some(entropy) = &self.initial_entropy {
             check_entropy::<S>("initial entropy coefficients", entropy)?;
             support.check_model("initial entropy coefficients", entropy, &[])?;
+            // Every search bounds |ψₖ| by η: a start beyond it leaves the
+            // joint step an empty box and, if no step is accepted, would be
+            // returned outside the documented bounds.
+            let eta = self.search.eta_for::<S>();
+            if let Some((k, c)) = entropy.iter().enumerate().find(|(_, c)| c.abs() > eta) {
+                return Err(invalid(
+                    "initial entropy coefficients",
+                    format!(
+                        "coefficient {k} is {c:e}, beyond the bound η = {eta:e} every search \
+                         holds |ψ| to; raise SearchOptions::eta or scale the start"
+                    ),
+                ));
+            }
         }
         if let Some(metric) = &self.initial_metric {
             check_metric_coefficients::<S>("initial metric coefficients", metric)?;

@@ -13,7 +13,7 @@ use super::config::IdentifyConfig;
 use super::cost::{data_scale, Cost};
 use super::search::{entropy_search, SearchOptions};
 use crate::data::IdentificationData;
-use crate::error::Result;
+use crate::error::{invalid, Result};
 use crate::model::classical::{self, degenerate_metric, Equalities};
 use crate::model::{check_metric_coefficients, identity_metric};
 use crate::system::MetriplecticSystem;
@@ -56,13 +56,43 @@ pub(super) fn default_start_metric<S: MetriplecticSystem>(
             }
         })?
     } else {
-        identity_metric::<S>(1.0)
+        // The identity within the support: zeroing diagonal entries of a
+        // diagonal metric keeps it positive semidefinite.
+        let mut identity = identity_metric::<S>(1.0);
+        for &k in options.support.metric_zeros() {
+            if let Some(t) = identity.get_mut(k) {
+                *t = 0.0;
+            }
+        }
+        identity
     };
+    // A start outside the support would be returned as it is if no metric
+    // step were ever accepted.
+    options
+        .support
+        .check_model("default start metric", &[], &metric)
+        .map_err(|_| {
+            invalid(
+                "initial metric",
+                "the default start metric has terms the support holds at zero; pass an \
+                 initial_metric within the support",
+            )
+        })?;
     let gauge = options.gauge;
     if let Some(gauge) = gauge {
         let (value, wanted) = (gauge.value_at::<S>(&metric), gauge.row::<S>().1);
         if value > 0.0 {
             metric.iter_mut().for_each(|t| *t *= wanted / value);
+        } else if S::CLASSICAL.is_none() {
+            // Only the support can have removed every term the gauge reads,
+            // and then no admissible metric meets it.
+            return Err(invalid(
+                "gauge",
+                format!(
+                    "{gauge:?} fixes tr K(0), but the support holds every constant diagonal \
+                     term of K at zero; free some of them or drop the gauge"
+                ),
+            ));
         }
     }
     Ok(metric)
