@@ -180,8 +180,10 @@ where
 /// `config`, as if it had never stopped: with the same seed, the resumed
 /// run's history equals that of an uninterrupted run.
 ///
-/// `config` may raise [`IdentifyConfig::max_iterations`] (to extend a run)
-/// and change [`IdentifyConfig::checkpoint`]; anything else that differs
+/// `config` may raise [`IdentifyConfig::max_iterations`] (to extend a run:
+/// it continues as a run with the larger cap would, except that a warm-up
+/// the smaller cap cut short, or ruled out at a cap of 1, stays as it
+/// was) and change [`IdentifyConfig::checkpoint`]; anything else that differs
 /// from the checkpointed run, or other data, is
 /// [`Error::CheckpointMismatch`](crate::Error::CheckpointMismatch) naming what differs. A checkpoint of a run
 /// that had converged or given up on solver failures is returned as is.
