@@ -130,3 +130,43 @@ fn every_model_synthesis_accepts_has_a_non_decreasing_free_energy() {
         assert!(model.free_energy_rate(x).unwrap() >= 0.0);
     }
 }
+
+/// The certificate allows a Gram shift of 1e-8 of the metric's size, so
+/// K(x) ⪰ −s‖Z(x)‖²I: a metric whose leading term is slightly negative
+/// passed and was indefinite far out. Such metrics are now refused with a
+/// state where they are; a slightly positive one still passes.
+#[test]
+fn a_metric_negative_only_far_out_is_refused_with_a_state() {
+    let basis = Linear2d::METRIC_EXPONENTS.len();
+    let q2 = Linear2d::METRIC_EXPONENTS
+        .iter()
+        .position(|e| e == &[2, 0])
+        .unwrap();
+    let identity = constant_metric([1.0, 0.0, 0.0, 1.0]);
+    // K₀₀ = 1 − 9e-9·q² (negative beyond |q| ≈ 1.05e4), and
+    // K = [[1, 1e-9·q²], [1e-9·q², 1]] (indefinite beyond |q| ≈ 3.2e4).
+    let mut diagonal = identity.clone();
+    diagonal[metric_pair_index(2, 0, 0) * basis + q2] = -9e-9;
+    let mut coupled = identity.clone();
+    coupled[metric_pair_index(2, 0, 1) * basis + q2] = 1e-9;
+    for theta in [diagonal, coupled] {
+        let err = Model::<Linear2d>::new(reference_entropy(), theta.clone()).unwrap_err();
+        let Error::MetricNotPositive {
+            eigenvalue, state, ..
+        } = &err
+        else {
+            panic!("{err}");
+        };
+        assert!(*eigenvalue < 0.0, "{err}");
+        let state = state.as_ref().expect("a state");
+        assert!(state[0].abs() > 1e4, "{err}");
+        // The state is a genuine witness: K there has that eigenvalue.
+        let mut k = [0.0; 4];
+        Linear2d::metric_value(state, &theta, &mut k);
+        let det = k[0] * k[3] - k[1] * k[2];
+        assert!(det < 0.0 || k[0] < 0.0, "{k:?}");
+    }
+    let mut positive = identity;
+    positive[metric_pair_index(2, 0, 0) * basis + q2] = 9e-9;
+    Model::<Linear2d>::new(reference_entropy(), positive).unwrap();
+}

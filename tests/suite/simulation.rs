@@ -488,3 +488,19 @@ fn draw(distribution: &InitialStates, rng: &mut ChaCha8Rng) -> Vec<f64> {
 fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
+
+/// Outputs are counted in stored values (time, state, ẋ, E and its
+/// tolerance: 2n + 3 per output), so a fine interval on a long span is
+/// refused before the run instead of filling gigabytes.
+#[test]
+fn more_outputs_than_a_simulation_keeps_are_refused() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let options = SimulationOptions {
+        output: OutputTimes::Interval(1e-8),
+        ..SimulationOptions::default()
+    };
+    let err = simulate(&model, &[0.5, 0.5], 0.0, 1.0, &options).unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("output interval"), "{text}");
+    assert!(text.contains("7 values each"), "{text}");
+}

@@ -73,6 +73,10 @@ pub(crate) fn check_metric<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> 
                     reason,
                 },
             ));
+        } else if let Some(error) = vertex_witness::<S>(what, theta, &block, scale) {
+            // The certificate's tolerance allows K(x) ⪰ −s‖Z(x)‖²I, which
+            // far out can exceed K itself: a state where it does is refused.
+            return Err(error);
         }
     }
     Ok(())
@@ -344,6 +348,142 @@ fn witness<S: MetriplecticSystem>(
         direction: embed(n, block, &direction),
         state: Some(x),
     })
+}
+
+/// Largest state component `vertex_witness` tries: the metric's monomials
+/// stay within f64 (|x|^degree ≤ 1e200) and far from any data.
+const WITNESS_MAGNITUDE_EXPONENT: f64 = 200.0;
+
+/// A state where the block is indefinite although its certificate passed
+/// within tolerance, aimed where that can show: far out (or near zero)
+/// along the directions in which a single term of uᵀK(x)u dominates.
+///
+/// For each u in {e_j, e_j ± e_k} of the block, p_u(x) = uᵀK(x)u must be a
+/// non-negative polynomial, so every vertex of its Newton polytope (the
+/// hull of its exponents) is an even monomial with a positive coefficient.
+/// A vertex that is not — the maximiser of a generic linear form d·α over
+/// the exponents, here ±e_v, ±(1, …, 1) and four random forms — dominates
+/// p_u at x_i = ±exp(t·d_i) as t grows, and those states are tried. Only a
+/// state where p_u is negative beyond rounding (1e-9 of Σ|c_α x^α|) is
+/// reported, so no metric that is positive semidefinite is ever refused.
+fn vertex_witness<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    block: &[usize],
+    scale: f64,
+) -> Option<Error> {
+    let n = S::DIM;
+    let exponents = S::METRIC_EXPONENTS;
+    let degree = exponents
+        .iter()
+        .map(|e| e.iter().sum::<u32>())
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    let largest_log = WITNESS_MAGNITUDE_EXPONENT / f64::from(degree) * std::f64::consts::LN_10;
+    // Generic linear forms: a small seeded perturbation makes each
+    // maximiser unique.
+    let mut rng = ChaCha8Rng::seed_from_u64(0x7e47);
+    let mut forms: Vec<Vec<f64>> = Vec::new();
+    for v in 0..n {
+        for sign in [1.0, -1.0] {
+            forms.push((0..n).map(|i| if i == v { sign } else { 0.0 }).collect());
+        }
+    }
+    forms.push(vec![1.0; n]);
+    forms.push(vec![-1.0; n]);
+    for _ in 0..4 {
+        forms.push((0..n).map(|_| rng.random_range(-1.0..1.0)).collect());
+    }
+    for form in &mut forms {
+        form.iter_mut()
+            .for_each(|d| *d += 1e-3 * rng.random_range(-1.0..1.0));
+    }
+    let mut directions: Vec<Vec<f64>> = Vec::new();
+    for (a, &j) in block.iter().enumerate() {
+        directions.push(embed(n, &[j], &[1.0]));
+        for &k in &block[a + 1..] {
+            directions.push(embed(n, &[j, k], &[1.0, 1.0]));
+            directions.push(embed(n, &[j, k], &[1.0, -1.0]));
+        }
+    }
+    let mut metric = vec![0.0; n * n];
+    for u in &directions {
+        // Coefficients of uᵀK(x)u.
+        let p: Vec<f64> = (0..exponents.len())
+            .map(|alpha| {
+                block_pairs(block)
+                    .map(|(_, _, j, k)| {
+                        let weight = if j == k { 1.0 } else { 2.0 };
+                        weight * u[j] * u[k] * entry::<S>(theta, j, k)[alpha]
+                    })
+                    .sum()
+            })
+            .collect();
+        let support: Vec<usize> = (0..p.len())
+            .filter(|&alpha| p[alpha].abs() > 1e-12 * scale)
+            .collect();
+        for form in &forms {
+            let level = |alpha: usize| -> f64 {
+                exponents[alpha]
+                    .iter()
+                    .zip(form)
+                    .map(|(&e, d)| f64::from(e) * d)
+                    .sum()
+            };
+            let Some(&vertex) = support
+                .iter()
+                .max_by(|&&a, &&b| level(a).total_cmp(&level(b)))
+            else {
+                continue;
+            };
+            let odd = exponents[vertex].iter().position(|e| e % 2 == 1);
+            if p[vertex] > 0.0 && odd.is_none() {
+                continue;
+            }
+            // Signs that make the vertex's term negative.
+            let mut signs = vec![1.0; n];
+            if p[vertex] > 0.0 {
+                if let Some(v) = odd {
+                    signs[v] = -1.0;
+                }
+            }
+            let reach = form.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+            for step in (0..=24).rev() {
+                let t = largest_log / reach / f64::from(1_u32 << step);
+                let x: Vec<f64> = (0..n).map(|i| signs[i] * (t * form[i]).exp()).collect();
+                S::metric_value(&x, theta, &mut metric);
+                let value: f64 = (0..n)
+                    .flat_map(|j| (0..n).map(move |k| (j, k)))
+                    .map(|(j, k)| u[j] * metric[j * n + k] * u[k])
+                    .sum();
+                let size: f64 = p
+                    .iter()
+                    .zip(exponents)
+                    .map(|(c, e)| {
+                        c.abs()
+                            * x.iter()
+                                .zip(e.iter())
+                                .map(|(xi, &ei)| xi.abs().powi(ei as i32))
+                                .product::<f64>()
+                    })
+                    .sum();
+                if value.is_finite() && size.is_finite() && value < -1e-9 * size {
+                    let local = DMatrix::from_fn(block.len(), block.len(), |a, b| {
+                        metric[block[a] * n + block[b]]
+                    });
+                    let (eigenvalue, direction) = smallest_eigen(local);
+                    return Some(Error::MetricNotPositive {
+                        what: what.to_owned(),
+                        eigenvalue,
+                        direction: embed(n, block, &direction),
+                        state: Some(x),
+                    });
+                }
+            }
+        }
+    }
+    None
 }
 
 /// Checks that K(x) ⪰ 0 on the region of `certificate` by finding Gram

@@ -92,10 +92,15 @@ impl<S: MetriplecticSystem> Model<S> {
     /// solvers' accuracy: a constant metric's smallest eigenvalue may be
     /// −1e-10 of its largest entry, and a certificate's Gram matrix may need
     /// a shift s of up to 1e-8 of the metric's largest coefficient, so that
-    /// an accepted metric satisfies K(x) ⪰ −s‖Z(x)‖²I. That bound grows with
-    /// the monomials Z(x) far from where the coefficients are of one size
-    /// (K₀₀ = 1 − 9e-9·q² passes and is negative beyond |q| ≈ 1.05e4);
-    /// [`simulate`](crate::simulate) checks E along every trajectory.
+    /// a certified metric satisfies K(x) ⪰ −s‖Z(x)‖²I. Far out that bound
+    /// can exceed K itself (K₀₀ = 1 − 9e-9·q² certifies and is negative
+    /// beyond |q| ≈ 1.05e4), so a certified metric is also probed where a
+    /// single term of uᵀK(x)u dominates (the vertices of its Newton
+    /// polytope, for u = e_j and e_j ± e_k), up to |x|^degree = 1e200, and
+    /// refused with [`Error::MetricNotPositive`] at a state where uᵀK(x)u
+    /// is negative beyond rounding. Negativity below the tolerance between
+    /// those directions is not excluded; [`simulate`](crate::simulate)
+    /// checks E along every trajectory.
     ///
     /// ```
     /// # use metriplectic_runtime::prelude::*;

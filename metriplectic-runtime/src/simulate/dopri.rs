@@ -374,7 +374,7 @@ fn validate(
 ) -> Result<()> {
     validate_start(x0, t0, t_end)?;
     validate_tolerances(options)?;
-    validate_output(t0, t_end, output)
+    validate_output(x0.len(), t0, t_end, output)
 }
 
 /// The initial state and the interval: what every integrator needs.
@@ -427,8 +427,14 @@ fn validate_tolerances(options: &IntegratorOptions) -> Result<()> {
     Ok(())
 }
 
-/// The output times within [t0, t_end] (`t0 < t_end` already checked).
-pub(super) fn validate_output(t0: f64, t_end: f64, output: &OutputTimes) -> Result<()> {
+/// Most values a simulation's outputs may hold (time, state, ẋ, E and its
+/// tolerance per output: 2n + 3 each), 800 MB of f64.
+const MAX_OUTPUT_VALUES: f64 = 1e8;
+
+/// The output times within [t0, t_end] (`t0 < t_end` already checked), and
+/// no more of them than `MAX_OUTPUT_VALUES` can hold for `dim` states.
+pub(super) fn validate_output(dim: usize, t0: f64, t_end: f64, output: &OutputTimes) -> Result<()> {
+    let per_output = 2.0 * dim as f64 + 3.0;
     match output {
         OutputTimes::Steps => {}
         OutputTimes::Interval(dt) => {
@@ -438,10 +444,14 @@ pub(super) fn validate_output(t0: f64, t_end: f64, output: &OutputTimes) -> Resu
                     format!("{dt}: must be finite and > 0"),
                 ));
             }
-            if (t_end - t0) / dt > 1e8 {
+            let outputs = (t_end - t0) / dt;
+            if outputs * per_output > MAX_OUTPUT_VALUES {
                 return Err(invalid(
                     "output interval",
-                    format!("{dt} over [{t0}, {t_end}] asks for more than 10⁸ outputs"),
+                    format!(
+                        "{dt} over [{t0}, {t_end}] asks for {outputs:.3e} outputs of {per_output} \
+                         values each, more than the 10⁸ values (800 MB) a simulation keeps"
+                    ),
                 ));
             }
         }

@@ -277,7 +277,7 @@ pub fn simulate<S: MetriplecticSystem>(
                 ));
             }
             dopri::validate_start(x0, t0, t_end)?;
-            dopri::validate_output(t0, t_end, &options.output)?;
+            dopri::validate_output(x0.len(), t0, t_end, &options.output)?;
             if options.integrator.max_steps == 0 {
                 return Err(invalid("max_steps", "must be at least 1".to_owned()));
             }
