@@ -186,7 +186,8 @@ where
 /// was) and change [`IdentifyConfig::checkpoint`]; anything else that differs
 /// from the checkpointed run, or other data, is
 /// [`Error::CheckpointMismatch`](crate::Error::CheckpointMismatch) naming what differs. A checkpoint of a run
-/// that had converged or given up on solver failures is returned as is.
+/// that had stopped by itself (converged, stagnated or given up on solver
+/// failures) gives that run's result without iterating again.
 pub fn identify_resume<S: MetriplecticSystem>(
     path: impl AsRef<Path>,
     data: &impl IdentificationData,

@@ -34,50 +34,67 @@ pub(super) fn initial_coefficients<S: MetriplecticSystem>(
     })
 }
 
-/// The default start metric: the identity, or for a classical system
-/// (where the identity breaks K∇H ≡ 0) the degenerate metric
-/// |∇H|² I − ∇H ∇Hᵀ with largest eigenvalue 1 on the region, or, where the
-/// metric basis cannot hold that, the identity projected onto K∇H ≡ 0 if
-/// the projection is a non-zero metric the certificate accepts; scaled to
-/// the gauge if one is set.
+/// The default start metric: the identity with the terms the support
+/// removes at zero, or for a classical system (where the identity breaks
+/// K∇H ≡ 0) the degenerate metric |∇H|² I − ∇H ∇Hᵀ with largest eigenvalue
+/// 1 on the region, or, where the metric basis or the support cannot hold
+/// that, that identity projected onto K∇H ≡ 0 if the projection is a
+/// non-zero metric the certificate accepts; scaled to the gauge if one is
+/// set. Always within the support, or an error.
 pub(super) fn default_start_metric<S: MetriplecticSystem>(
     options: &SearchOptions,
 ) -> Result<Vec<f64>> {
+    // The identity within the support: zeroing diagonal entries of a
+    // diagonal metric keeps it positive semidefinite.
+    let mut identity = identity_metric::<S>(1.0);
+    for &k in options.support.metric_zeros() {
+        if let Some(t) = identity.get_mut(k) {
+            *t = 0.0;
+        }
+    }
+    let within_support = |metric: &[f64]| {
+        options
+            .support
+            .check_model("default start metric", &[], metric)
+            .is_ok()
+    };
     let mut metric = if S::CLASSICAL.is_some() {
-        degenerate_metric::<S>(1.0).or_else(|unrepresentable| {
-            let mut projected = identity_metric::<S>(1.0);
-            let free = options.support.free_metric::<S>(options.sos);
-            Equalities::new(classical::metric_rows::<S>(), &free)
-                .project_coefficients(&mut projected);
-            let nonzero = projected.iter().any(|t| t.abs() > 1e-12);
-            match check_metric_coefficients::<S>("initial metric coefficients", &projected) {
-                Ok(()) if nonzero => Ok(projected),
-                _ => Err(unrepresentable),
-            }
-        })?
-    } else {
-        // The identity within the support: zeroing diagonal entries of a
-        // diagonal metric keeps it positive semidefinite.
-        let mut identity = identity_metric::<S>(1.0);
-        for &k in options.support.metric_zeros() {
-            if let Some(t) = identity.get_mut(k) {
-                *t = 0.0;
+        match degenerate_metric::<S>(1.0) {
+            Ok(degenerate) if within_support(&degenerate) => degenerate,
+            degenerate => {
+                let mut projected = identity;
+                let free = options.support.free_metric::<S>(options.sos);
+                Equalities::new(classical::metric_rows::<S>(), &free)
+                    .project_coefficients(&mut projected);
+                let nonzero = projected.iter().any(|t| t.abs() > 1e-12);
+                match check_metric_coefficients::<S>("initial metric coefficients", &projected) {
+                    Ok(()) if nonzero => projected,
+                    _ => {
+                        return Err(degenerate.err().unwrap_or_else(|| {
+                            invalid(
+                                "initial metric",
+                                "the default start metric (|∇H|²I − ∇H∇Hᵀ) has terms the \
+                                 support holds at zero, and no projection of the identity \
+                                 within it is a metric; pass an initial_metric within the \
+                                 support",
+                            )
+                        }))
+                    }
+                }
             }
         }
+    } else {
         identity
     };
     // A start outside the support would be returned as it is if no metric
     // step were ever accepted.
-    options
-        .support
-        .check_model("default start metric", &[], &metric)
-        .map_err(|_| {
-            invalid(
-                "initial metric",
-                "the default start metric has terms the support holds at zero; pass an \
-                 initial_metric within the support",
-            )
-        })?;
+    if !within_support(&metric) {
+        return Err(invalid(
+            "initial metric",
+            "the default start metric has terms the support holds at zero; pass an \
+             initial_metric within the support",
+        ));
+    }
     let gauge = options.gauge;
     if let Some(gauge) = gauge {
         let (value, wanted) = (gauge.value_at::<S>(&metric), gauge.row::<S>().1);
