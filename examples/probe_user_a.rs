@@ -78,15 +78,26 @@ metriplectic! {
 fn statuses<S: MetriplecticSystem>(fit: &metriplectic_runtime::Identification<S>) -> String {
     let mut bad = Vec::new();
     for r in &fit.history.iterations {
-        for (name, step) in [("metric", Some(&r.metric)), ("entropy", Some(&r.entropy)), ("joint", r.joint.as_ref().map(|j| &j.step))] {
+        for (name, step) in [
+            ("metric", Some(&r.metric)),
+            ("entropy", Some(&r.entropy)),
+            ("joint", r.joint.as_ref().map(|j| &j.step)),
+        ] {
             if let Some(step) = step {
                 if step.report.status != SolveStatus::Solved {
-                    bad.push(format!("it{} {name}: {:?} ({:?})", r.iteration, step.report.status, step.outcome));
+                    bad.push(format!(
+                        "it{} {name}: {:?} ({:?})",
+                        r.iteration, step.report.status, step.outcome
+                    ));
                 }
             }
         }
     }
-    if bad.is_empty() { "none".into() } else { bad.join("; ") }
+    if bad.is_empty() {
+        "none".into()
+    } else {
+        bad.join("; ")
+    }
 }
 
 fn report<S: MetriplecticSystem, D: IdentificationData>(
@@ -128,15 +139,26 @@ fn report<S: MetriplecticSystem, D: IdentificationData>(
                 if sim.energy.is_non_decreasing() {
                     ok += 1;
                 } else {
-                    println!("    simulate from {x0:?}: energy check FAILED {:?}", sim.energy);
+                    println!(
+                        "    simulate from {x0:?}: energy check FAILED {:?}",
+                        sim.energy
+                    );
                 }
             }
             Err(e) => println!("    simulate from {x0:?}: ERROR {e}"),
         }
     }
-    println!("    energy non-decreasing on {ok}/{} held-out starts", starts.len() / n);
+    println!(
+        "    energy non-decreasing on {ok}/{} held-out starts",
+        starts.len() / n
+    );
+    match metriplectic_runtime::identifiability(&fit.model, data, &metriplectic_runtime::IdentifiabilityOptions::default()) {
+        Ok(r) => println!("    identifiability: unknowns {}, rank {}, flat {}", r.unknowns, r.rank, r.flat_directions.len()),
+        Err(e) => println!("    identifiability ERROR: {e}"),
+    }
     if std::env::var("PROBE_PRINT").is_ok() {
         println!("{}", fit.model);
+        println!("truth:\n{}", truth);
     }
 }
 
@@ -154,7 +176,13 @@ fn run<S: MetriplecticSystem>(name: &str, initial: InitialStates, duration: f64)
         duration,
         held_out_trajectories: 20,
         seed: 1,
-        ..SynthesisOptions::new(initial, SampleTimes::LogUniform { count: 50, first: 1e-3 })
+        ..SynthesisOptions::new(
+            initial,
+            SampleTimes::LogUniform {
+                count: 50,
+                first: 1e-3,
+            },
+        )
     };
     let t = Instant::now();
     let clean = match synthesize(&truth, &base) {
@@ -173,30 +201,57 @@ fn run<S: MetriplecticSystem>(name: &str, initial: InitialStates, duration: f64)
         .flat_map(|tr| tr.state(0).to_vec())
         .collect();
     let config = IdentifyConfig::default();
-    report::<S, _>("exact xdot", &clean.train, &truth, &held_out_clean, &starts, duration, &config);
+    report::<S, _>(
+        "exact xdot",
+        &clean.train,
+        &truth,
+        &held_out_clean,
+        &starts,
+        duration,
+        &config,
+    );
 
     let states = clean.train.states();
     let rms = (states.iter().map(|v| v * v).sum::<f64>() / states.len() as f64).sqrt();
     let noisy_opts = SynthesisOptions {
-        noise: Noise { state_std: 0.01 * rms, derivative_std: 0.0 },
+        noise: Noise {
+            state_std: 0.01 * rms,
+            derivative_std: 0.0,
+        },
         ..base
     };
     let noisy = synthesize(&truth, &noisy_opts).unwrap();
     let form = WeakForm::default();
-    let weak = match WeakDataset::from_trajectories(&noisy.measured[..noisy.train_trajectories], &form) {
-        Ok(w) => w,
-        Err(e) => {
-            println!("  weak ERROR: {e}");
-            return;
-        }
-    };
-    report::<S, _>("weak 1% noise", &weak, &truth, &held_out_clean, &starts, duration, &config);
+    let weak =
+        match WeakDataset::from_trajectories(&noisy.measured[..noisy.train_trajectories], &form) {
+            Ok(w) => w,
+            Err(e) => {
+                println!("  weak ERROR: {e}");
+                return;
+            }
+        };
+    report::<S, _>(
+        "weak 1% noise",
+        &weak,
+        &truth,
+        &held_out_clean,
+        &starts,
+        duration,
+        &config,
+    );
 }
 
 fn main() {
     let which = std::env::args().nth(1).unwrap_or_default();
     if which.is_empty() || which == "a" {
-        run::<EulerTilt>("A EulerTilt", InitialStates::Ball { center: vec![0.0; 3], radius: 1.5 }, 5.0);
+        run::<EulerTilt>(
+            "A EulerTilt",
+            InitialStates::Ball {
+                center: vec![0.0; 3],
+                radius: 1.5,
+            },
+            5.0,
+        );
     }
     if which.is_empty() || which == "b" {
         run::<QuarticFriction>("B QuarticFriction", InitialStates::cube(2, 1.5), 5.0);
@@ -207,7 +262,10 @@ fn main() {
     if which.is_empty() || which == "d" {
         run::<ThermalQuartic>(
             "D ThermalQuartic",
-            InitialStates::Box { lower: vec![-1.5, -1.5, -1.0], upper: vec![1.5, 1.5, 1.0] },
+            InitialStates::Box {
+                lower: vec![-1.5, -1.5, -1.0],
+                upper: vec![1.5, 1.5, 1.0],
+            },
             5.0,
         );
     }

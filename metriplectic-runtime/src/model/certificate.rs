@@ -170,6 +170,13 @@ fn smallest_eigen(matrix: DMatrix<f64>) -> (f64, Vec<f64>) {
     }
 }
 
+/// The block's part of an n×n row-major metric value (local indices).
+fn block_matrix(metric: &[f64], n: usize, block: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(block.len(), block.len(), |a, b| {
+        metric[block[a] * n + block[b]]
+    })
+}
+
 /// The block's eigenvector as a full n-vector.
 fn embed(n: usize, block: &[usize], local: &[f64]) -> Vec<f64> {
     let mut full = vec![0.0; n];
@@ -328,10 +335,7 @@ fn witness<S: MetriplecticSystem>(
                 .map(|_| radius * rng.random_range(-1.0..1.0))
                 .collect();
             S::metric_value(&x, theta, &mut metric);
-            let local = DMatrix::from_fn(block.len(), block.len(), |a, b| {
-                metric[block[a] * n + block[b]]
-            });
-            let (eigenvalue, direction) = smallest_eigen(local);
+            let (eigenvalue, direction) = smallest_eigen(block_matrix(&metric, n, block));
             if eigenvalue < -EIGENVALUE_TOLERANCE * scale
                 && worst.as_ref().is_none_or(|(w, _, _)| eigenvalue < *w)
             {
@@ -469,10 +473,7 @@ fn vertex_witness<S: MetriplecticSystem>(
                     })
                     .sum();
                 if value.is_finite() && size.is_finite() && value < -1e-9 * size {
-                    let local = DMatrix::from_fn(block.len(), block.len(), |a, b| {
-                        metric[block[a] * n + block[b]]
-                    });
-                    let (eigenvalue, direction) = smallest_eigen(local);
+                    let (eigenvalue, direction) = smallest_eigen(block_matrix(&metric, n, block));
                     return Some(Error::MetricNotPositive {
                         what: what.to_owned(),
                         eigenvalue,
