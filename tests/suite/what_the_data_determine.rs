@@ -426,3 +426,26 @@ fn the_analyses_check_their_inputs_and_fit_their_starts_to_each_support() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A singular metric sits on the boundary of K ⪰ 0: the double well's
+/// K = diag(0, γ) with E changed as δK₀₁ = 1, δK₁₁ = −½ fits the data to
+/// first order, but K + tδK is indefinite for t of either sign, so the
+/// data and K ⪰ 0 together determine the model. The report used to call it
+/// not identifiable.
+#[test]
+fn directions_that_k_psd_excludes_are_not_reported_as_undetermined() {
+    use metriplectic::systems::Duffing;
+    let data = reference_samples::<Duffing>(400, 41, |rng| {
+        (0..2).map(|_| rng.random_range(-1.5..1.5)).collect()
+    });
+    let truth = Model::<Duffing>::reference().unwrap();
+    let report = identifiability(&truth, &data, &IdentifiabilityOptions::default()).unwrap();
+    assert!(report.is_identifiable(), "{report}");
+    assert!(report.excluded_by_positivity >= 1, "{report:?}");
+    assert!(report.to_string().contains("K ⪰ 0"), "{report}");
+    // The same for a fit, whose zero row is zero only to the solver's
+    // accuracy.
+    let fit = identify::<Duffing>(&data, &IdentifyConfig::default()).unwrap();
+    let report = identifiability(&fit.model, &data, &IdentifiabilityOptions::default()).unwrap();
+    assert!(report.is_identifiable(), "{report}");
+}

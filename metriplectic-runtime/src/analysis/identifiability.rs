@@ -104,6 +104,12 @@ pub struct Identifiability {
     pub gauge_fixed: bool,
     /// The directions the data cannot determine (`unknowns − rank` of them).
     pub flat_directions: Vec<FlatDirection>,
+    /// Flat directions of the fit that K ⪰ 0 excludes (to second order,
+    /// both signs indefinite at some data state: e.g. an off-diagonal
+    /// entry in a zero row of K), counted as determined: no admissible
+    /// model lies along them. 0 when read from an older report.
+    #[serde(default)]
+    pub excluded_by_positivity: usize,
 }
 
 impl Identifiability {
@@ -125,12 +131,28 @@ impl std::fmt::Display for Identifiability {
             if self.scale_symmetry && self.gauge_fixed {
                 write!(f, "; the scale symmetry K -> cK is fixed by the gauge")?;
             }
+            if self.excluded_by_positivity > 0 {
+                write!(
+                    f,
+                    "; K ⪰ 0 excludes {} flat direction(s) of the fit",
+                    self.excluded_by_positivity
+                )?;
+            }
             return Ok(());
         }
         writeln!(
             f,
-            "not identifiable: the data determine {} of {} coefficient combinations; undetermined:",
-            self.rank, self.unknowns
+            "not identifiable: the data determine {} of {} coefficient combinations{}; undetermined:",
+            self.rank,
+            self.unknowns,
+            if self.excluded_by_positivity > 0 {
+                format!(
+                    " (with K ⪰ 0, which excludes {} flat direction(s) of the fit)",
+                    self.excluded_by_positivity
+                )
+            } else {
+                String::new()
+            }
         )?;
         // A large basis can have dozens of flat directions, each a
         // polynomial per block: the text shows the first few, abbreviated;
@@ -340,8 +362,14 @@ pub fn identifiability<S: MetriplecticSystem>(
                 .collect()
         })
         .collect();
-    let mut flat = Vec::new();
+    // Directions K ⪰ 0 rules out are not ambiguities of the fit.
+    let excluded = excluded_by_positivity::<S>(model, data, &null, &scale, &free_theta, columns)?;
     let mut remaining = null.clone();
+    for u in &excluded {
+        remaining = project_out(&remaining, u);
+    }
+    let rank = width - remaining.len();
+    let mut flat = Vec::new();
     if let (true, false, Some(u)) = (scale_symmetry, gauge_fixed, &scale_direction) {
         if !remaining.is_empty() {
             flat.push((FlatKind::ScaleSymmetry, u.clone()));
@@ -366,7 +394,175 @@ pub fn identifiability<S: MetriplecticSystem>(
         scale_symmetry,
         gauge_fixed,
         flat_directions,
+        excluded_by_positivity: excluded.len(),
     })
+}
+
+/// States at which `excluded_by_positivity` reads the metric's null space.
+const FACE_STATES: usize = 64;
+
+/// Relative size below which a block of δK counts as zero: a fit sits at
+/// the solver's accuracy, so a zero row of K is zero only to ~1e-5.
+const FACE_TOLERANCE: f64 = 1e-3;
+
+/// The part of the flat subspace (orthonormal `null`, scaled coordinates)
+/// that K ⪰ 0 excludes: along it K + tδK is indefinite for every small t
+/// of either sign (beyond a sliver of the fit's accuracy), so no
+/// admissible model lies that way.
+///
+/// At a state where K(x) has null vectors N and range vectors R, the
+/// blocks of δK are D_NN = Nᵀ δK N and D_RN = Rᵀ δK N. With D_NN = 0 and
+/// D_RN ≠ 0 the N-block of K + tδK has Schur complement −t² D_NR Λ⁻¹ D_RN,
+/// negative for t of both signs; with D_NN ≠ 0 one sign stays admissible
+/// (a one-sided ambiguity, still undetermined), and with both zero both
+/// do. Sizes are relative to δK's own over the states read (up to 64 of
+/// the data's, evenly spaced): the excluded part is where D_NN is below
+/// `FACE_TOLERANCE` of it and D_RN is not. A null vector is an eigenvector
+/// of K(x) below 1e-8 of its largest eigenvalue.
+fn excluded_by_positivity<S: MetriplecticSystem>(
+    model: &Model<S>,
+    data: &impl IdentificationData,
+    null: &[Vec<f64>],
+    scale: &[f64],
+    free_theta: &[usize],
+    columns: usize,
+) -> Result<Vec<Vec<f64>>> {
+    if null.is_empty() || free_theta.is_empty() {
+        return Ok(Vec::new());
+    }
+    let n = S::DIM;
+    let m = S::METRIC_EXPONENTS.len();
+    let flat = null.len();
+    let theta = model.metric_coefficients();
+    let states = data_states(data);
+    let stride = states.len().div_ceil(FACE_STATES).max(1);
+    let mut metric = vec![0.0; n * n];
+    let mut features = vec![0.0; m];
+    // Σ r rᵀ over the forms r of δK's entries, of D_NN and of D_RN, each
+    // restricted to the flat subspace (r_j = form · null_j).
+    let mut size = DMatrix::<f64>::zeros(flat, flat);
+    let mut null_block = DMatrix::<f64>::zeros(flat, flat);
+    let mut range_block = DMatrix::<f64>::zeros(flat, flat);
+    let mut any_null = false;
+    for x in states.iter().step_by(stride) {
+        S::metric_value(x, theta, &mut metric);
+        let matrix = DMatrix::from_row_slice(n, n, &metric);
+        let Some((values, vectors)) = crate::solve::linalg::symmetric_eigen(&matrix) else {
+            continue;
+        };
+        let largest = values.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        let is_null: Vec<bool> = values.iter().map(|&v| v <= 1e-8 * largest).collect();
+        S::metric_features(x, &mut features);
+        // The form δθ ↦ vᵀ δK(x) w on the scaled columns, restricted.
+        let restricted = |v: &[f64], w: &[f64]| -> nalgebra::DVector<f64> {
+            let mut row = vec![0.0; columns];
+            for (c, &t) in free_theta.iter().enumerate() {
+                let Some((a, b)) = pair_entry(n, t / m) else {
+                    continue;
+                };
+                let weight = if a == b {
+                    v[a] * w[a]
+                } else {
+                    v[a] * w[b] + v[b] * w[a]
+                };
+                row[c] = weight * features[t % m] / scale[c];
+            }
+            nalgebra::DVector::from_fn(flat, |j, _| {
+                row.iter().zip(&null[j]).map(|(a, b)| a * b).sum()
+            })
+        };
+        let column = |i: usize| -> Vec<f64> { vectors.column(i).iter().copied().collect() };
+        for a in 0..n {
+            for b in a..n {
+                let r = restricted(&column(a), &column(b));
+                size += &r * r.transpose();
+                match (is_null[a], is_null[b]) {
+                    (true, true) => {
+                        any_null = true;
+                        null_block += &r * r.transpose();
+                    }
+                    (true, false) | (false, true) => range_block += &r * r.transpose(),
+                    (false, false) => {}
+                }
+            }
+        }
+    }
+    if !any_null {
+        return Ok(Vec::new());
+    }
+    // Whiten by δK's size: w = Λ^½ Vᵀ z, so that |w| is the size of the
+    // change of K along u = Σ zⱼ nullⱼ. Directions that leave K alone
+    // (pure entropy changes) are never excluded.
+    let Some((values, vectors)) = crate::solve::linalg::symmetric_eigen(&size) else {
+        return Ok(Vec::new());
+    };
+    let top = values.iter().fold(0.0_f64, |a, v| a.max(*v));
+    let kept: Vec<usize> = (0..flat).filter(|&i| values[i] > 1e-20 * top).collect();
+    if kept.is_empty() {
+        return Ok(Vec::new());
+    }
+    let unwhiten = DMatrix::from_fn(flat, kept.len(), |r, c| {
+        vectors[(r, kept[c])] / values[kept[c]].sqrt()
+    });
+    let relative = |block: &DMatrix<f64>, basis: &DMatrix<f64>| {
+        let whitened = basis.transpose() * block * basis;
+        crate::solve::linalg::symmetric_eigen(&whitened)
+    };
+    let tolerance = FACE_TOLERANCE * FACE_TOLERANCE;
+    // Where D_NN is negligible against δK…
+    let Some((null_values, null_vectors)) = relative(&null_block, &unwhiten) else {
+        return Ok(Vec::new());
+    };
+    let small: Vec<usize> = (0..kept.len())
+        .filter(|&i| null_values[i] <= tolerance)
+        .collect();
+    if small.is_empty() {
+        return Ok(Vec::new());
+    }
+    let within =
+        &unwhiten * DMatrix::from_fn(kept.len(), small.len(), |r, c| null_vectors[(r, small[c])]);
+    // …and D_RN is not.
+    let Some((range_values, range_vectors)) = relative(&range_block, &within) else {
+        return Ok(Vec::new());
+    };
+    let excluded: Vec<Vec<f64>> = (0..small.len())
+        .filter(|&i| range_values[i] > tolerance)
+        .map(|i| {
+            let z = &within * range_vectors.column(i);
+            let mut u: Vec<f64> = (0..columns)
+                .map(|c| (0..flat).map(|j| null[j][c] * z[j]).sum())
+                .collect();
+            let length = norm(&u);
+            u.iter_mut().for_each(|v| *v /= length);
+            u
+        })
+        .collect();
+    // Orthonormal, as the caller projects them out one by one.
+    Ok(orthonormalised(excluded))
+}
+
+/// Gram–Schmidt, dropping vectors already in the span of the previous.
+fn orthonormalised(vectors: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for mut v in vectors {
+        for b in &basis {
+            let dot: f64 = v.iter().zip(b).map(|(x, y)| x * y).sum();
+            v.iter_mut().zip(b).for_each(|(x, y)| *x -= dot * y);
+        }
+        let length = norm(&v);
+        if length > 1e-8 {
+            v.iter_mut().for_each(|x| *x /= length);
+            basis.push(v);
+        }
+    }
+    basis
+}
+
+/// The entry (a, b), a ≤ b, of upper-triangle pair index `pair`.
+fn pair_entry(n: usize, pair: usize) -> Option<(usize, usize)> {
+    (0..n)
+        .flat_map(|a| (a..n).map(move |b| (a, b)))
+        .find(|&(a, b)| metric_pair_index(n, a, b) == pair)
 }
 
 /// The direction in coefficient units (c = D⁻¹ y), scaled to largest
