@@ -228,4 +228,18 @@ fn a_thermal_oscillator_is_identified_in_the_classical_form() {
     let score = fit.model.compare(&truth, &held_out).unwrap();
     assert!(score.relative_error <= 1e-9, "{score:?}");
     assert_classical_structure(&fit.model, &held_out);
+    // Ranks are counted where the classical equalities leave room. The
+    // degree-2 metrics with K(x)x ≡ 0 are [x]ₓ C [x]ₓᵀ for a symmetric
+    // constant C: 6 unknowns, not the free coefficients. With S = s the
+    // data see only K's last column, which fixes 5 of them; C = e_s e_sᵀ,
+    // adding (p, −q, 0)(p, −q, 0)ᵀ, is truly undetermined.
+    let metric_warning = fit.warnings.iter().find_map(|w| match w {
+        metriplectic_runtime::IdentifyWarning::RankDeficient {
+            block: metriplectic_runtime::CoefficientBlock::Metric,
+            rank,
+            coefficients,
+        } => Some((*rank, *coefficients)),
+        _ => None,
+    });
+    assert_eq!(metric_warning, Some((5, 6)), "{:?}", fit.warnings);
 }

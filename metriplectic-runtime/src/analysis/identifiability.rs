@@ -740,6 +740,7 @@ mod tests {
             scale_symmetry: false,
             gauge_fixed: false,
             flat_directions: vec![direction; 8],
+            excluded_by_positivity: 0,
         };
         let text = report.to_string();
         assert_eq!(

@@ -10,6 +10,7 @@ use super::history::History;
 use super::search::{entropy_regression, metric_regression};
 use crate::data::IdentificationData;
 use crate::error::Result;
+use crate::model::classical::{self, Equalities};
 use crate::model::Model;
 use crate::solve::linalg::{singular_values, triangular_factor};
 use crate::solve::Regression;
@@ -245,13 +246,18 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             unknowns: p + free.len(),
         });
     }
+    // A classical system's equalities (S a Casimir, K∇H ≡ 0) fix some
+    // combinations whatever the data: only the rest are unknowns.
+    let entropy_rows = Equalities::new(classical::entropy_rows::<S>(), &free_entropy).dense_rows();
+    let metric_rows = Equalities::new(classical::metric_rows::<S>(), &free).dense_rows();
     let entropy = entropy_regression::<S>(data, model.metric_coefficients())?;
-    if let Some(rank) = numerical_rank(&entropy, &free_entropy) {
-        if rank < p {
+    let unknowns = p.saturating_sub(entropy_rows.len());
+    if let Some(rank) = numerical_rank(&entropy, &free_entropy, &entropy_rows) {
+        if rank < unknowns {
             warnings.push(IdentifyWarning::RankDeficient {
                 block: CoefficientBlock::Entropy,
                 rank,
-                coefficients: p,
+                coefficients: unknowns,
             });
         }
     }
@@ -274,31 +280,58 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         });
     }
     let metric = metric_regression::<S>(data, psi)?;
-    if let Some(rank) = numerical_rank(&metric, &free) {
-        if rank < free.len() {
+    let unknowns = free.len().saturating_sub(metric_rows.len());
+    if let Some(rank) = numerical_rank(&metric, &free, &metric_rows) {
+        if rank < unknowns {
             warnings.push(IdentifyWarning::RankDeficient {
                 block: CoefficientBlock::Metric,
                 rank,
-                coefficients: free.len(),
+                coefficients: unknowns,
             });
         }
     }
     Ok(warnings)
 }
 
-/// Numerical rank of the regression's `columns`, from the singular values
-/// of the triangular factor R with RᵀR = AᵀA formed from blocks of rows
-/// (A's own): the work is linear in the number of samples, so every run is
-/// checked, however large. `None` if the SVD fails.
-fn numerical_rank(regression: &Regression, columns: &[usize]) -> Option<usize> {
+/// Numerical rank of the regression's `columns` on the subspace where the
+/// orthonormal `constraints` (dense over `columns`) vanish: the rank of A
+/// stacked over the constraints, less theirs. From the singular values of
+/// the triangular factor formed from blocks of rows (A's own): the work is
+/// linear in the number of samples, so every run is checked, however
+/// large. `None` if the SVD fails.
+fn numerical_rank(
+    regression: &Regression,
+    columns: &[usize],
+    constraints: &[Vec<f64>],
+) -> Option<usize> {
     let k = columns.len();
     if k == 0 {
         return Some(0);
     }
     let width = regression.width;
-    let r = triangular_factor(regression.len(), k, |i, row| {
-        for (target, &j) in row.iter_mut().zip(columns) {
-            *target = regression.rows[i * width + j];
+    let rows = regression.len();
+    // The constraints weigh as much as the data's largest column, so that
+    // neither falls below the other's rounding.
+    let weight = if constraints.is_empty() {
+        0.0
+    } else {
+        let mut norms = vec![0.0_f64; k];
+        for i in 0..rows {
+            for (norm, &j) in norms.iter_mut().zip(columns) {
+                *norm += regression.rows[i * width + j].powi(2);
+            }
+        }
+        norms.iter().fold(0.0_f64, |m, n| m.max(n.sqrt())).max(1.0)
+    };
+    let r = triangular_factor(rows + constraints.len(), k, |i, row| {
+        if i < rows {
+            for (target, &j) in row.iter_mut().zip(columns) {
+                *target = regression.rows[i * width + j];
+            }
+        } else {
+            for (target, value) in row.iter_mut().zip(&constraints[i - rows]) {
+                *target = weight * value;
+            }
         }
     });
     let singular = singular_values(&r)?;
@@ -306,12 +339,11 @@ fn numerical_rank(regression: &Regression, columns: &[usize]) -> Option<usize> {
     if largest <= 0.0 {
         return Some(0);
     }
-    Some(
-        singular
-            .iter()
-            .filter(|&&s| s > RANK_TOLERANCE * largest)
-            .count(),
-    )
+    let stacked = singular
+        .iter()
+        .filter(|&&s| s > RANK_TOLERANCE * largest)
+        .count();
+    Some(stacked.saturating_sub(constraints.len()))
 }
 
 #[cfg(test)]
@@ -365,7 +397,34 @@ mod tests {
         };
         let all: Vec<usize> = (0..width).collect();
         assert!(rows as f64 * (width * width) as f64 > 2e9);
-        assert_eq!(numerical_rank(&regression, &all), Some(width - 1));
-        assert_eq!(numerical_rank(&regression, &all[2..]), Some(width - 2));
+        assert_eq!(numerical_rank(&regression, &all, &[]), Some(width - 1));
+        assert_eq!(numerical_rank(&regression, &all[2..], &[]), Some(width - 2));
+    }
+
+    /// Equalities fix combinations whatever the data: the rank is counted
+    /// on the subspace they leave, against that many unknowns. A column
+    /// that repeats another is dependent, unless an equality ties the two.
+    #[test]
+    fn the_rank_is_counted_where_the_equalities_leave_room() {
+        let rows: Vec<f64> = [
+            [1.0, 2.0, 2.0],
+            [3.0, -1.0, -1.0],
+            [0.5, 4.0, 4.0],
+            [2.0, 1.0, 1.0],
+        ]
+        .concat();
+        let regression = Regression {
+            width: 3,
+            rows,
+            target: vec![0.0; 4],
+        };
+        let all = [0, 1, 2];
+        assert_eq!(numerical_rank(&regression, &all, &[]), Some(2));
+        // c₁ = c₂ removes the dependent direction: 2 unknowns, rank 2.
+        let tie = vec![0.0, 1.0 / 2_f64.sqrt(), -1.0 / 2_f64.sqrt()];
+        assert_eq!(numerical_rank(&regression, &all, &[tie]), Some(2));
+        // c₀ = 0 leaves the dependent direction: 2 unknowns, rank 1.
+        let zero = vec![1.0, 0.0, 0.0];
+        assert_eq!(numerical_rank(&regression, &all, &[zero]), Some(1));
     }
 }
