@@ -283,6 +283,13 @@ fn a_metric_certified_on_the_region_only_is_accepted_there_only() {
         ),
         "{error}"
     );
+    // A witness outside the region would puzzle: the error says why it counts.
+    assert!(
+        error
+            .to_string()
+            .contains("unless the system declares `certificate on region;`"),
+        "{error}"
+    );
     // 1 − 8q² < 0 at q = ±0.5: refused on the region too, with a state inside it.
     match Model::<OnTheBoxOnly>::new(entropy, shrinking_metric::<OnTheBoxOnly>(8.0)).unwrap_err() {
         Error::MetricNotPositive {

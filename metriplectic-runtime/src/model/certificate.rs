@@ -61,7 +61,19 @@ pub(crate) fn check_metric<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> 
         if certificate.mode == CertificateMode::OnRegion {
             return check_on_region::<S>(what, theta, &certificate);
         }
+        // A region only bounds K from above by default: say so, since a
+        // witness outside the region is otherwise puzzling.
+        let hint = format!(
+            "{what} (K(x) ⪰ 0 is required for every x, outside the region too, unless the \
+             system declares `certificate on region;`)"
+        );
+        return check_everywhere::<S>(&hint, theta);
     }
+    check_everywhere::<S>(what, theta)
+}
+
+/// K(x) ⪰ 0 for every x, block by block.
+fn check_everywhere<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<()> {
     for block in blocks::<S>(theta) {
         let scale = block_scale::<S>(theta, &block);
         if is_constant::<S>(theta, &block) {
