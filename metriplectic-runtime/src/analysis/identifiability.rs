@@ -91,7 +91,9 @@ pub struct Identifiability {
     /// coefficients and the metric coefficients the certificate and support
     /// leave free, less one for a gauge.
     pub unknowns: usize,
-    /// Number of independent combinations the data determine.
+    /// Number of independent combinations the data determine, counting
+    /// those K ⪰ 0 leaves no room along as determined
+    /// ([`excluded_by_positivity`](Self::excluded_by_positivity)).
     pub rank: usize,
     /// Singular values of the column-normalised Jacobian, descending,
     /// relative to the largest.
