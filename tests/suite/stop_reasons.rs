@@ -201,25 +201,27 @@ fn targets_beyond_the_range_of_f64_are_refused() {
 }
 
 /// Stagnation is judged on scores; a minibatch run without validation has
-/// none, and used to run to the cap with stagnation silently off.
+/// none (the paper's Algorithm 2) and runs to the cap, as documented.
 #[test]
-fn stagnation_without_scores_is_refused() {
+fn a_minibatch_run_without_scores_runs_to_the_cap() {
     let data = linear2d_data(50, 6);
     let config = IdentifyConfig {
         batch_size: Some(20),
         validation: metriplectic_runtime::Validation::None,
+        tolerance: 0.0,
+        max_iterations: 7,
         ..IdentifyConfig::default()
     };
-    let error = identify::<Linear2d>(&data, &config)
-        .unwrap_err()
-        .to_string();
-    assert!(error.contains("cannot stagnate"), "{error}");
-    let config = IdentifyConfig {
-        stagnation: None,
-        max_iterations: 1,
-        ..config
-    };
-    identify::<Linear2d>(&data, &config).unwrap();
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    assert_eq!(result.stop_reason, StopReason::MaxIterations);
+    // Seven iterations, then the default polish.
+    let runs = result
+        .history
+        .iterations
+        .iter()
+        .filter(|r| !r.polish)
+        .count();
+    assert_eq!(runs, 7);
 }
 
 /// The default start metric lies in the support (the identity with the

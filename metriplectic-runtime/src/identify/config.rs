@@ -43,7 +43,9 @@ pub struct IdentifyConfig {
     /// ([`StopReason::Stagnated`](crate::StopReason::Stagnated)): noisy data
     /// never reach the tolerance. `None` runs to the cap. It is judged on
     /// the [`validation`](Self::validation) scores, so a minibatch run with
-    /// [`Validation::None`] must set it to `None`. Default
+    /// [`Validation::None`], which scores nothing (as the paper's
+    /// Algorithm 2), never stagnates and runs to the tolerance or the cap
+    /// whatever this is. Default
     /// [`Stagnation::default`].
     pub stagnation: Option<Stagnation>,
     /// Which samples score the model after each iteration of a minibatch run
@@ -264,16 +266,6 @@ impl IdentifyConfig {
                 return Err(invalid(
                     "stagnation relative_improvement",
                     format!("{delta} is not in [0, 1)"),
-                ));
-            }
-            // Stagnation is judged on the scores; without them it would be
-            // silently off.
-            if self.batch_size.is_some() && self.validation == Validation::None {
-                return Err(invalid(
-                    "stagnation",
-                    "a minibatch run with Validation::None scores nothing, so it cannot \
-                     stagnate: set stagnation to None (run to the tolerance or the cap) or \
-                     choose Validation::AllData or HeldOut",
                 ));
             }
         }
