@@ -438,6 +438,9 @@ fn excluded_by_positivity<S: MetriplecticSystem>(
     let theta = model.metric_coefficients();
     let states = data_states(data);
     let stride = states.len().div_ceil(FACE_STATES).max(1);
+    // The entry (a, b) each free coefficient belongs to, looked up once.
+    let entries: Vec<Option<(usize, usize)>> =
+        free_theta.iter().map(|&t| pair_entry(n, t / m)).collect();
     let mut metric = vec![0.0; n * n];
     let mut features = vec![0.0; m];
     // Σ r rᵀ over the forms r of δK's entries, of D_NN and of D_RN, each
@@ -458,8 +461,8 @@ fn excluded_by_positivity<S: MetriplecticSystem>(
         // The form δθ ↦ vᵀ δK(x) w on the scaled columns, restricted.
         let restricted = |v: &[f64], w: &[f64]| -> nalgebra::DVector<f64> {
             let mut row = vec![0.0; columns];
-            for (c, &t) in free_theta.iter().enumerate() {
-                let Some((a, b)) = pair_entry(n, t / m) else {
+            for (c, (&t, entry)) in free_theta.iter().zip(&entries).enumerate() {
+                let Some((a, b)) = *entry else {
                     continue;
                 };
                 let weight = if a == b {
@@ -540,24 +543,7 @@ fn excluded_by_positivity<S: MetriplecticSystem>(
         })
         .collect();
     // Orthonormal, as the caller projects them out one by one.
-    Ok(orthonormalised(excluded))
-}
-
-/// Gram–Schmidt, dropping vectors already in the span of the previous.
-fn orthonormalised(vectors: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    for mut v in vectors {
-        for b in &basis {
-            let dot: f64 = v.iter().zip(b).map(|(x, y)| x * y).sum();
-            v.iter_mut().zip(b).for_each(|(x, y)| *x -= dot * y);
-        }
-        let length = norm(&v);
-        if length > 1e-8 {
-            v.iter_mut().for_each(|x| *x /= length);
-            basis.push(v);
-        }
-    }
-    basis
+    Ok(gram_schmidt(excluded.iter().map(Vec::as_slice), None, 1e-8))
 }
 
 /// The entry (a, b), a ≤ b, of upper-triangle pair index `pair`.
@@ -697,20 +683,32 @@ fn orthogonal_complement(rows: &[Vec<f64>], k: usize) -> Result<DMatrix<f64>> {
 /// The vectors with their component along the unit vector `u` removed,
 /// re-orthonormalised; one fewer than given when `u` lay in their span.
 fn project_out(vectors: &[Vec<f64>], u: &[f64]) -> Vec<Vec<f64>> {
+    let mut kept = gram_schmidt(vectors.iter().map(Vec::as_slice), Some(u), 1e-6);
+    kept.truncate(vectors.len().saturating_sub(1));
+    kept
+}
+
+/// Gram–Schmidt: each vector made orthogonal to the unit vector `against`
+/// (if any) and to those kept before it, and kept, normalised, unless it is
+/// left shorter than `tolerance`.
+fn gram_schmidt<'a>(
+    vectors: impl IntoIterator<Item = &'a [f64]>,
+    against: Option<&[f64]>,
+    tolerance: f64,
+) -> Vec<Vec<f64>> {
     let mut kept: Vec<Vec<f64>> = Vec::new();
     for v in vectors {
-        let mut w = v.clone();
-        for basis in std::iter::once(u).chain(kept.iter().map(Vec::as_slice)) {
+        let mut w = v.to_vec();
+        for basis in against.into_iter().chain(kept.iter().map(Vec::as_slice)) {
             let dot: f64 = w.iter().zip(basis).map(|(a, b)| a * b).sum();
             w.iter_mut().zip(basis).for_each(|(a, b)| *a -= dot * b);
         }
         let size = norm(&w);
-        if size > 1e-6 {
+        if size > tolerance {
             w.iter_mut().for_each(|a| *a /= size);
             kept.push(w);
         }
     }
-    kept.truncate(vectors.len().saturating_sub(1));
     kept
 }
 
