@@ -434,3 +434,53 @@ fn a_stop_asked_for_in_a_failed_warm_up_is_honoured() {
     assert_eq!(calls, 1);
     assert_eq!(result.stop_reason, StopReason::Interrupted);
 }
+
+/// A history cost that overflowed is saved and loaded: JSON has no
+/// infinities, and the `null` serde_json wrote for one used to make the
+/// whole checkpoint unloadable.
+#[test]
+fn a_checkpoint_with_a_non_finite_cost_in_its_history_resumes() {
+    let dir = scratch("non-finite-cost");
+    let data = linear2d_data(40, 14);
+    let path = dir.join("checkpoint.json");
+    let config = config(Some(&path));
+    identify_with_observer::<Linear2d, _>(&data, &config, |record, _| {
+        if record.iteration == 2 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for (field, written) in [("inf", "inf"), ("null", "NaN")] {
+        let cost = &mut value["history"]["iterations"][0]["metric"]["report"]["cost"];
+        cost["sum"] = match field {
+            "null" => serde_json::Value::Null,
+            text => serde_json::json!(text),
+        };
+        std::fs::write(&path, value.to_string()).unwrap();
+        let resumed = identify_resume::<Linear2d>(
+            &path,
+            &data,
+            &IdentifyConfig {
+                max_iterations: 4,
+                ..config.clone()
+            },
+        )
+        .unwrap_or_else(|err| panic!("cost {field}: {err}"));
+        assert_eq!(resumed.history.iterations.len(), 4);
+        let sum = resumed.history.iterations[0]
+            .metric
+            .report
+            .cost
+            .unwrap()
+            .sum;
+        assert_eq!(sum.to_string(), written);
+        // Iteration 4 saved a checkpoint with the value as text.
+        let saved = std::fs::read_to_string(&path).unwrap();
+        assert!(saved.contains(&format!("\"sum\":\"{written}\"")), "{field}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

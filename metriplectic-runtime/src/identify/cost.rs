@@ -14,10 +14,13 @@ use crate::system::MetriplecticSystem;
 /// An L1 identification cost.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Cost {
-    /// Σᵢ Σⱼ |ẋᵢⱼ − fⱼ(xᵢ)| over the samples and state components.
+    /// Σᵢ Σⱼ |ẋᵢⱼ − fⱼ(xᵢ)| over the samples and state components (in
+    /// JSON a number, or `"inf"` / `"NaN"` when it overflowed).
+    #[serde(with = "super::json_float::number")]
     pub sum: f64,
     /// `sum` divided by the number of residual components m·n: the mean
     /// absolute residual, the quantity the paper plots.
+    #[serde(with = "super::json_float::number")]
     pub per_component: f64,
 }
 

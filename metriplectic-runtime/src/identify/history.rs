@@ -93,6 +93,7 @@ pub struct JointStepRecord {
     pub predicted: Option<Cost>,
     /// Actual decrease over predicted decrease, if the step was accepted
     /// and a decrease was predicted.
+    #[serde(with = "super::json_float::optional", default)]
     pub ratio: Option<f64>,
     /// Whether the candidate is the second-order corrected step (taken when
     /// the linearised step gained less than the trust region's good ratio

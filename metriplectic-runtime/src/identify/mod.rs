@@ -11,6 +11,7 @@ mod cost;
 mod driver;
 mod history;
 mod iterate;
+mod json_float;
 pub(crate) mod search;
 mod start;
 mod state;
