@@ -258,10 +258,19 @@ impl ExprParser {
                     format!("blocks are not allowed in expressions; {OPERATORS_HINT}"),
                 )),
             },
-            TokenTree::Punct(p) => Err(self.unexpected(
-                &TokenTree::Punct(p),
-                "expected a number, a variable, a constant or `(`",
-            )),
+            TokenTree::Punct(p) => match self.peek() {
+                // `.5`: Rust has no such literal, so it is `.` then `5`.
+                Some(TokenTree::Literal(digits)) if p.as_char() == '.' => {
+                    let range = SpanRange::single(p.span()).to(SpanRange::single(digits.span()));
+                    Err(range.error(format!(
+                        "`.{digits}` is not a number: write it with a leading zero, `0.{digits}`"
+                    )))
+                }
+                _ => Err(self.unexpected(
+                    &TokenTree::Punct(p),
+                    "expected a number, a variable, a constant or `(`",
+                )),
+            },
         }
     }
 
@@ -356,4 +365,44 @@ fn number(literal: proc_macro2::Literal) -> syn::Result<Expr> {
 #[cfg(test)]
 pub fn parse_expression(tokens: proc_macro2::TokenStream) -> syn::Result<Expr> {
     ExprParser::new(tokens.into_iter().collect(), Span::call_site()).parse_all()
+}
+
+#[cfg(test)]
+mod tests {
+    use quote::quote;
+
+    /// The messages of an invocation that must fail.
+    fn errors(input: proc_macro2::TokenStream) -> Vec<String> {
+        crate::try_expand(input).expect_err("must fail").messages()
+    }
+
+    #[test]
+    fn a_decimal_without_its_leading_zero_gets_a_hint_to_write_it() {
+        let messages = errors(quote! {
+            struct S; state (q, p); poisson = [[0, 1], [-1, 0]];
+            hamiltonian = .5 * p^2 + q^2; entropy degree 2; metric degree 0;
+        });
+        assert!(
+            messages[0].contains("`.5` is not a number: write it with a leading zero, `0.5`"),
+            "{messages:?}"
+        );
+        // A method call keeps its own message.
+        let messages = errors(quote! {
+            struct S; state (q, p); poisson = [[0, 1], [-1, 0]];
+            hamiltonian = q.powi(2); entropy degree 2; metric degree 0;
+        });
+        assert!(messages[0].contains("method"), "{messages:?}");
+    }
+
+    #[test]
+    fn degrees_are_untyped_numbers_like_those_in_expressions() {
+        let messages = errors(quote! {
+            struct S; state (q, p); poisson = [[0, 1], [-1, 0]];
+            hamiltonian = q^2 + p^2; entropy degree 4u8; metric degree 0;
+        });
+        assert!(
+            messages[0].contains("the degree is written without a type suffix: `4`, not `4u8`"),
+            "{messages:?}"
+        );
+    }
 }

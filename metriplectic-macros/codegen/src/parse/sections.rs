@@ -560,6 +560,16 @@ fn number_section(
     }
     let literal = match cursor.peek() {
         Some(TokenTree::Literal(literal)) => match syn::Lit::new(literal.clone()) {
+            // As in expressions, numbers are untyped: `4u8` is refused.
+            syn::Lit::Int(int) if !int.suffix().is_empty() => {
+                return Err(syn::Error::new(
+                    literal.span(),
+                    format!(
+                        "{what} is written without a type suffix: `{}`, not `{int}`",
+                        int.base10_digits()
+                    ),
+                ))
+            }
             syn::Lit::Int(int) => int,
             _ => {
                 return Err(syn::Error::new(
