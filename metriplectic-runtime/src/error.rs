@@ -246,14 +246,19 @@ pub enum CsvError {
         expected: String,
     },
     /// The header has no data rows after it.
-    #[error("no data rows after the header (line 1)")]
-    NoRows,
+    #[error("no data rows after the header (line {line})")]
+    NoRows {
+        /// The header's line number (1-based; blank lines before it count).
+        line: u64,
+    },
     /// Required columns are absent.
     #[error(
-        "line 1: missing column(s) {}; expected columns: {expected}",
+        "line {line}: missing column(s) {}; expected columns: {expected}",
         quoted(missing)
     )]
     MissingColumns {
+        /// The header's line number.
+        line: u64,
         /// The missing names.
         missing: Vec<String>,
         /// The columns the system expects.
@@ -261,18 +266,22 @@ pub enum CsvError {
     },
     /// Columns the system does not know.
     #[error(
-        "line 1: unknown column(s) {}; expected columns: {expected}",
+        "line {line}: unknown column(s) {}; expected columns: {expected}",
         quoted(unknown)
     )]
     UnknownColumns {
+        /// The header's line number.
+        line: u64,
         /// The unknown names.
         unknown: Vec<String>,
         /// The columns the system expects.
         expected: String,
     },
     /// A column name appears twice.
-    #[error("line 1: column `{name}` appears twice (columns {first} and {second})")]
+    #[error("line {line}: column `{name}` appears twice (columns {first} and {second})")]
     DuplicateColumn {
+        /// The header's line number.
+        line: u64,
         /// The repeated name.
         name: String,
         /// First position (1-based).
@@ -282,11 +291,13 @@ pub enum CsvError {
     },
     /// Some but not all derivative columns are present.
     #[error(
-        "line 1: derivative columns must be all present or all absent; found {}, missing {}",
+        "line {line}: derivative columns must be all present or all absent; found {}, missing {}",
         quoted(present),
         quoted(missing)
     )]
     PartialDerivatives {
+        /// The header's line number.
+        line: u64,
         /// Derivative columns found.
         present: Vec<String>,
         /// Derivative columns missing.
@@ -335,8 +346,10 @@ pub enum CsvError {
         text: String,
     },
     /// A header cell is empty (often a trailing comma).
-    #[error("line 1, column {column}: the column has no name (a trailing comma?)")]
+    #[error("line {line}, column {column}: the column has no name (a trailing comma?)")]
     EmptyColumnName {
+        /// The header's line number.
+        line: u64,
         /// Column number (1-based).
         column: usize,
     },

@@ -150,6 +150,7 @@ fn header_errors_name_the_columns() {
     assert_eq!(
         e,
         CsvError::MissingColumns {
+            line: 1,
             missing: vec!["p".into()],
             expected: match &e {
                 CsvError::MissingColumns { expected, .. } => expected.clone(),
@@ -173,6 +174,7 @@ fn header_errors_name_the_columns() {
     assert_eq!(
         e,
         CsvError::DuplicateColumn {
+            line: 1,
             name: "q".into(),
             first: 2,
             second: 4
@@ -188,7 +190,7 @@ fn header_errors_name_the_columns() {
     assert!(msg.contains("found `dq`, missing `dp`"), "{msg}");
 
     let (e, msg) = csv_error("t,q,p\n");
-    assert_eq!(e, CsvError::NoRows);
+    assert_eq!(e, CsvError::NoRows { line: 1 });
     assert!(msg.contains("no data rows"), "{msg}");
 }
 
@@ -308,6 +310,45 @@ fn reserved_state_names_and_writer_checks() {
         "{err}"
     );
     assert!(write_trajectories_to(Vec::new(), &[]).is_err());
+
+    // Files the reader would split differently are not written: an
+    // identifier repeated, or equal to an unnamed trajectory's number.
+    let unnamed = || {
+        let t = awkward_trajectory("x", true);
+        let derivatives = t.derivatives().map(<[f64]>::to_vec);
+        Trajectory::new(
+            t.names().to_vec(),
+            t.times().to_vec(),
+            t.states().to_vec(),
+            derivatives,
+        )
+        .unwrap()
+    };
+    for (trajectories, message) in [
+        (
+            vec![awkward_trajectory("a", true), awkward_trajectory("a", true)],
+            "cannot write trajectory 1: its identifier `a` is also trajectory 0's",
+        ),
+        (
+            vec![awkward_trajectory("1", true), unnamed()],
+            "cannot write trajectory 1: its identifier `1` is also trajectory 0's",
+        ),
+        (
+            vec![awkward_trajectory(" run", true)],
+            "identifier \" run\" would not read back as written",
+        ),
+        (
+            vec![awkward_trajectory("a\nb", true)],
+            "would not read back as written",
+        ),
+    ] {
+        let err = write_trajectories_to(Vec::new(), &trajectories).unwrap_err();
+        assert!(err.to_string().contains(message), "{err}");
+    }
+    let mut text = Vec::new();
+    write_trajectories_to(&mut text, &[unnamed(), awkward_trajectory("run", true)]).unwrap();
+    let back = read_trajectories_from(text.as_slice(), &["q", "p"]).unwrap();
+    assert_eq!(back.len(), 2);
 
     let missing = std::env::temp_dir().join("metriplectic-no-such-dir/x.csv");
     let err = read_trajectories::<Linear2d>(&missing).unwrap_err();
@@ -618,10 +659,22 @@ fn blank_files_and_trailing_commas_are_named() {
     }
     let (err, message) = csv_error("t,q,p,\n0,1,2,\n");
     assert!(
-        matches!(err, CsvError::EmptyColumnName { column: 4 }),
+        matches!(err, CsvError::EmptyColumnName { column: 4, .. }),
         "{err:?}"
     );
     assert!(message.contains("trailing comma"), "{message}");
+    // Blank lines before the header are skipped, and counted.
+    let (err, message) = csv_error("\n\nt,q\n0,1\n");
+    assert!(
+        matches!(err, CsvError::MissingColumns { line: 3, .. }),
+        "{err:?}"
+    );
+    assert!(
+        message.starts_with("line 3: missing column(s) `p`"),
+        "{message}"
+    );
+    let (err, _) = csv_error("\r\n\r\nt,q,p\n");
+    assert_eq!(err, CsvError::NoRows { line: 3 });
 }
 
 #[test]
@@ -678,6 +731,27 @@ fn sizes_beyond_memory_and_overflowing_estimates_are_errors_not_aborts() {
     )
     .unwrap_err();
     assert!(error.to_string().contains("at sample 0"), "{error}");
+    // The same through a trajectory list: which trajectory and variable.
+    let names = vec!["q".to_owned(), "p".to_owned()];
+    let overflowing = Trajectory::new(
+        names,
+        vec![0.0, 0.1, 0.2],
+        vec![0.0, 1e308, 0.0, 0.0, 0.0, -1e308],
+        None,
+    )
+    .unwrap()
+    .with_id("run7");
+    let error = metriplectic_runtime::estimate_all(
+        &[overflowing],
+        &DerivativeMethod::FiniteDifference { order: 2 },
+    )
+    .unwrap_err();
+    assert!(
+        error.to_string().contains(
+            "invalid trajectory 0 (id \"run7\"): variable `p`: derivative estimate: at sample 0"
+        ),
+        "{error}"
+    );
 }
 
 #[test]
@@ -689,5 +763,76 @@ fn a_state_name_given_twice_is_refused_before_reading() {
             .to_string()
             .contains("`q` is both variable 0 and variable 1"),
         "{error}"
+    );
+}
+
+/// Data are positional: trajectories naming the system's variables in
+/// another order would fit a model with the variables swapped. Data built
+/// from trajectories carry their names, and identification checks them.
+#[test]
+fn data_named_otherwise_than_the_system_are_refused() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let synthetic = synthesize(&model, &synthesis_options(21)).unwrap();
+    let names = |t: &Trajectory| t.names().to_vec();
+    assert_eq!(
+        synthetic.train.state_names(),
+        Some(&names(&synthetic.trajectories[0])[..])
+    );
+    let swapped: Vec<Trajectory> = synthetic
+        .trajectories
+        .iter()
+        .map(|t| {
+            let derivatives = t.derivatives().map(<[f64]>::to_vec);
+            let names = vec!["p".to_owned(), "q".to_owned()];
+            Trajectory::new(names, t.times().to_vec(), t.states().to_vec(), derivatives).unwrap()
+        })
+        .collect();
+    let config = IdentifyConfig {
+        max_iterations: 1,
+        ..crate::common::alternation()
+    };
+    let pointwise = metriplectic_runtime::dataset_from_trajectories(&swapped).unwrap();
+    let weak = WeakDataset::from_trajectories(&swapped, &WeakForm::default()).unwrap();
+    let message = "the data's state variables are (p, q), system `Linear2d` has (q, p)";
+    let err = identify::<Linear2d>(&pointwise, &config).unwrap_err();
+    assert!(err.to_string().contains(message), "{err}");
+    let err = identify::<Linear2d>(&weak, &config).unwrap_err();
+    assert!(err.to_string().contains(message), "{err}");
+    // The same numbers named as the system names them, or not named, fit.
+    identify::<Linear2d>(&synthetic.train, &config).unwrap();
+    let unnamed = Dataset::from_flat(
+        2,
+        pointwise.states().to_vec(),
+        pointwise.derivatives().to_vec(),
+    )
+    .unwrap();
+    assert_eq!(unnamed.state_names(), None);
+    identify::<Linear2d>(&unnamed, &config).unwrap();
+
+    // A trajectory that cannot give samples is named among many.
+    let mut mixed = synthetic.trajectories.clone();
+    mixed[3] = synthetic.measured[3].clone();
+    let err = metriplectic_runtime::dataset_from_trajectories(&mixed).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("trajectory 3 (id \"3\"): trajectory: it has no derivatives"),
+        "{err}"
+    );
+    // Renaming a dataset checks the count and repeats.
+    let err = unnamed
+        .clone()
+        .with_state_names(vec!["q".into()])
+        .unwrap_err();
+    assert!(
+        err.to_string().contains("expected length 2, got 1"),
+        "{err}"
+    );
+    let err = unnamed
+        .with_state_names(vec!["q".into(), "q".into()])
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("`q` is both variable 0 and variable 1"),
+        "{err}"
     );
 }

@@ -99,7 +99,9 @@ pub fn read_trajectories_from(mut reader: impl Read, names: &[&str]) -> Result<V
         }
         .into());
     }
-    let layout = Layout::from_header(&header, names)?;
+    // The parser skips blank lines, so the header may come after some.
+    let header_line = header.position().map_or(1, |p| lines.line_of(p.byte()));
+    let layout = Layout::from_header(&header, names, header_line)?;
     let n = names.len();
 
     let mut builder = Builder::default();
@@ -186,7 +188,7 @@ pub fn read_trajectories_from(mut reader: impl Read, names: &[&str]) -> Result<V
     }
     builder.finish(names)?;
     if builder.done.is_empty() {
-        return Err(CsvError::NoRows.into());
+        return Err(CsvError::NoRows { line: header_line }.into());
     }
     Ok(builder.done)
 }
@@ -198,7 +200,10 @@ pub fn read_trajectories_from(mut reader: impl Read, names: &[&str]) -> Result<V
 /// All trajectories must have the same state names and either all or none
 /// must carry derivatives. A `trajectory` column is written when there is
 /// more than one trajectory or any has an [`id`](Trajectory::id); unnamed
-/// trajectories are numbered from 0.
+/// trajectories are numbered by their position from 0. Identifiers must
+/// differ (also from those numbers) and read back as written (no
+/// surrounding spaces, no line breaks), so that reading the file gives back
+/// the same trajectories.
 pub fn write_trajectories(
     path: impl AsRef<Path>,
     trajectories: &[Trajectory],
@@ -248,7 +253,7 @@ pub fn write_trajectories_to(writer: impl Write, trajectories: &[Trajectory]) ->
     csv.write_record(&header).map_err(writer_error)?;
     let mut row: Vec<String> = Vec::with_capacity(header.len());
     for (index, traj) in trajectories.iter().enumerate() {
-        let id = traj.id().map_or_else(|| index.to_string(), str::to_owned);
+        let id = written_id((index, traj));
         for k in 0..traj.len() {
             row.clear();
             if with_ids {
@@ -306,15 +311,46 @@ fn check_writable(trajectories: &[Trajectory]) -> Result<()> {
             }
             .into());
         }
-        if traj.id().is_some_and(str::is_empty) {
+        if let Some(id) = traj.id() {
+            let reason = if id.is_empty() {
+                Some("its identifier is empty".to_owned())
+            } else if id.trim() != id || id.contains(['\n', '\r']) {
+                // The reader trims cells and reads a record per line.
+                Some(format!(
+                    "its identifier {id:?} would not read back as written: it begins or ends \
+                     with spaces or holds a line break"
+                ))
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                return Err(CsvError::Inconsistent { index, reason }.into());
+            }
+        }
+    }
+    // The reader starts a trajectory where the identifier changes, so two
+    // trajectories under one identifier would read back as one (or fail).
+    let ids: Vec<String> = trajectories.iter().enumerate().map(written_id).collect();
+    let mut seen = HashMap::with_capacity(ids.len());
+    for (index, id) in ids.iter().enumerate() {
+        if let Some(first) = seen.insert(id.as_str(), index) {
             return Err(CsvError::Inconsistent {
                 index,
-                reason: "its identifier is empty".to_owned(),
+                reason: format!(
+                    "its identifier `{id}` is also trajectory {first}'s (unnamed trajectories \
+                     are written as their position); identifiers must differ"
+                ),
             }
             .into());
         }
     }
     Ok(())
+}
+
+/// The `trajectory` cell of the trajectory at `index`: its identifier, or
+/// its position when it has none.
+fn written_id((index, traj): (usize, &Trajectory)) -> String {
+    traj.id().map_or_else(|| index.to_string(), str::to_owned)
 }
 
 /// Column positions (0-based) found in the header.
@@ -326,15 +362,20 @@ struct Layout {
 }
 
 impl Layout {
-    fn from_header(header: &csv::StringRecord, names: &[&str]) -> Result<Self> {
+    fn from_header(header: &csv::StringRecord, names: &[&str], line: u64) -> Result<Self> {
         let expected = expected_columns(names);
         let mut positions: HashMap<&str, usize> = HashMap::new();
         for (col, name) in header.iter().enumerate() {
             if name.is_empty() {
-                return Err(CsvError::EmptyColumnName { column: col + 1 }.into());
+                return Err(CsvError::EmptyColumnName {
+                    line,
+                    column: col + 1,
+                }
+                .into());
             }
             if let Some(&first) = positions.get(name) {
                 return Err(CsvError::DuplicateColumn {
+                    line,
                     name: name.to_owned(),
                     first: first + 1,
                     second: col + 1,
@@ -359,7 +400,12 @@ impl Layout {
             .map(str::to_owned)
             .collect();
         if !unknown.is_empty() {
-            return Err(CsvError::UnknownColumns { unknown, expected }.into());
+            return Err(CsvError::UnknownColumns {
+                line,
+                unknown,
+                expected,
+            }
+            .into());
         }
         let missing: Vec<String> = std::iter::once(TIME_COLUMN)
             .chain(names.iter().copied())
@@ -367,7 +413,12 @@ impl Layout {
             .map(str::to_owned)
             .collect();
         if !missing.is_empty() {
-            return Err(CsvError::MissingColumns { missing, expected }.into());
+            return Err(CsvError::MissingColumns {
+                line,
+                missing,
+                expected,
+            }
+            .into());
         }
         let (present, absent): (Vec<String>, Vec<String>) = derivative_names
             .iter()
@@ -384,6 +435,7 @@ impl Layout {
             None
         } else {
             return Err(CsvError::PartialDerivatives {
+                line,
                 present,
                 missing: absent,
             }

@@ -2,18 +2,25 @@
 //! derivative.
 
 use super::equations::{sealed, Equations, IdentificationData};
-use crate::error::{DatasetError, Error, Result};
+use crate::error::{invalid, DatasetError, Error, Result};
 
 /// Validated samples (xᵢ, ẋᵢ), i = 0..m, of an n-dimensional state.
 ///
 /// Stored row-major: sample i's state is `states[i*n..(i+1)*n]`. Construction
 /// guarantees at least one sample, matching lengths and finite values, so the
 /// solvers never see malformed data.
+///
+/// Data built from trajectories (and by [`synthesize`](crate::synthesize))
+/// carry their state names, which identification checks against the
+/// system's; data built from bare numbers ([`from_flat`](Self::from_flat),
+/// [`from_rows`](Self::from_rows)) are unnamed and taken in the system's
+/// state order (name them with [`with_state_names`](Self::with_state_names)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dataset {
     dim: usize,
     states: Vec<f64>,
     derivatives: Vec<f64>,
+    names: Option<Vec<String>>,
 }
 
 impl Dataset {
@@ -59,7 +66,30 @@ impl Dataset {
             dim,
             states,
             derivatives,
+            names: None,
         })
+    }
+
+    /// The same samples with their state variables named, in state order
+    /// (default: unnamed). Identification then refuses the data for a
+    /// system whose [`STATE_NAMES`](crate::MetriplecticSystem::STATE_NAMES)
+    /// differ, in name or order. Datasets built from trajectories are named
+    /// by them.
+    ///
+    /// Errors if there are not `dim()` names or a name repeats.
+    pub fn with_state_names(mut self, names: Vec<String>) -> Result<Self> {
+        if names.len() != self.dim {
+            return Err(Error::DimensionMismatch {
+                what: "dataset state names".to_owned(),
+                expected: self.dim,
+                found: names.len(),
+            });
+        }
+        if let Some(reason) = super::trajectory::repeated_name(&names) {
+            return Err(invalid("dataset state names", reason));
+        }
+        self.names = Some(names);
+        Ok(self)
     }
 
     /// A dataset from per-sample rows (each of length `dim`).
@@ -162,10 +192,14 @@ impl Dataset {
             states.extend_from_slice(self.state(i));
             derivatives.extend_from_slice(self.derivative(i));
         }
-        Ok(Self::from_flat(self.dim, states, derivatives)?)
+        Ok(Self {
+            names: self.names.clone(),
+            ..Self::from_flat(self.dim, states, derivatives)?
+        })
     }
 
-    /// Appends the samples of `other` (same dimension).
+    /// Appends the samples of `other` (same dimension; if both are named,
+    /// the same names). Unnamed samples take this dataset's names.
     pub fn extend(&mut self, other: &Dataset) -> Result<()> {
         if other.dim != self.dim {
             return Err(Error::DimensionMismatch {
@@ -173,6 +207,21 @@ impl Dataset {
                 expected: self.dim,
                 found: other.dim,
             });
+        }
+        if let (Some(ours), Some(theirs)) = (&self.names, &other.names) {
+            if ours != theirs {
+                return Err(invalid(
+                    "appended dataset",
+                    format!(
+                        "its state variables are ({}), this dataset's are ({})",
+                        theirs.join(", "),
+                        ours.join(", ")
+                    ),
+                ));
+            }
+        }
+        if self.names.is_none() {
+            self.names.clone_from(&other.names);
         }
         self.states.extend_from_slice(&other.states);
         self.derivatives.extend_from_slice(&other.derivatives);
@@ -187,6 +236,7 @@ impl sealed::Sealed for Dataset {
             states: &self.states,
             targets: &self.derivatives,
             terms: None,
+            names: self.names.as_deref(),
         }
     }
 

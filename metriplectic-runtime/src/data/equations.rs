@@ -32,6 +32,14 @@ pub trait IdentificationData: sealed::Sealed + Clone + std::fmt::Debug + Send + 
     fn equation_count(&self) -> usize {
         self.equations().len()
     }
+
+    /// The state variables' names in state order, when the data were built
+    /// from named trajectories (`None` for data built from bare numbers,
+    /// which are taken in the system's state order). Identification
+    /// refuses named data whose names are not the system's, in its order.
+    fn state_names(&self) -> Option<&[String]> {
+        self.equations().names
+    }
 }
 
 pub(crate) mod sealed {
@@ -60,6 +68,9 @@ pub struct Equations<'a> {
     /// The terms (sample, weight) of each equation; `None`: equation i is
     /// sample i with weight 1.
     pub terms: Option<Terms<'a>>,
+    /// The state variables' names, when the data came from named
+    /// trajectories.
+    pub names: Option<&'a [String]>,
 }
 
 /// The terms of every equation: those of equation e are at
@@ -199,6 +210,25 @@ pub(crate) fn check_dataset<S: MetriplecticSystem>(data: &impl IdentificationDat
             expected: S::DIM,
             found: data.dim(),
         });
+    }
+    if let Some(names) = data.state_names() {
+        if !names
+            .iter()
+            .map(String::as_str)
+            .eq(S::STATE_NAMES.iter().copied())
+        {
+            return Err(invalid(
+                "dataset state names",
+                format!(
+                    "the data's state variables are ({}), system `{}` has ({}); data are \
+                     positional, so build them from trajectories with the system's names in \
+                     its order",
+                    names.join(", "),
+                    S::NAME,
+                    S::STATE_NAMES.join(", ")
+                ),
+            ));
+        }
     }
     // Every cost is a sum of |residual|s of this size: one beyond f64
     // would be infinite, and an infinite cost compares as converged.

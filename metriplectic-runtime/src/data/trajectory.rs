@@ -227,16 +227,13 @@ impl Trajectory {
                 "it has no derivatives; estimate them with `estimate_derivatives` first".to_owned(),
             )
         })?;
-        Ok(Dataset::from_flat(
-            self.dim(),
-            self.states.clone(),
-            derivatives,
-        )?)
+        Dataset::from_flat(self.dim(), self.states.clone(), derivatives)?
+            .with_state_names(self.names.clone())
     }
 }
 
-/// All samples of several trajectories as one dataset (same dimension, all
-/// with derivatives).
+/// All samples of several trajectories as one dataset (the same state
+/// names in the same order, all with derivatives).
 ///
 /// ```
 /// use metriplectic_runtime::{dataset_from_trajectories, Trajectory};
@@ -253,11 +250,40 @@ pub fn dataset_from_trajectories(trajectories: &[Trajectory]) -> Result<Dataset>
             "at least one trajectory is required".to_owned(),
         )
     })?;
-    let mut data = first.to_dataset()?;
-    for traj in rest {
-        data.extend(&traj.to_dataset()?)?;
+    check_same_names(trajectories)?;
+    let named = |index: usize, traj: &Trajectory| {
+        traj.to_dataset()
+            .map_err(|err| in_series(err, &describe(index, traj)))
+    };
+    let mut data = named(0, first)?;
+    for (index, traj) in rest.iter().enumerate() {
+        data.extend(&named(index + 1, traj)?)?;
     }
     Ok(data)
+}
+
+/// Errors unless every trajectory names its state variables as the first
+/// does, in the same order: data are positional, so `(p, q)` beside
+/// `(q, p)` would mix the two variables silently.
+pub(crate) fn check_same_names(trajectories: &[Trajectory]) -> Result<()> {
+    let Some((first, rest)) = trajectories.split_first() else {
+        return Ok(());
+    };
+    for (index, traj) in rest.iter().enumerate() {
+        if traj.names != first.names {
+            return Err(invalid(
+                "trajectory state names",
+                format!(
+                    "trajectory {} has ({}), trajectory 0 has ({}); all must name the same \
+                     variables in the same order",
+                    index + 1,
+                    traj.names.join(", "),
+                    first.names.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 impl Dataset {
@@ -341,6 +367,27 @@ pub fn split_by_trajectory(
     Ok((pick(&order), pick(&validation_indices)))
 }
 
+/// How errors name the trajectory at `index` of a list: "trajectory 3", or
+/// "trajectory 3 (id \"run7\")" when it has an identifier.
+pub(crate) fn describe(index: usize, trajectory: &Trajectory) -> String {
+    match trajectory.id() {
+        Some(id) => format!("trajectory {index} (id {id:?})"),
+        None => format!("trajectory {index}"),
+    }
+}
+
+/// Says which trajectory or series (`series`) an invalid-argument error
+/// concerns; other errors are returned as they are.
+pub(crate) fn in_series(err: Error, series: &str) -> Error {
+    match err {
+        Error::InvalidArgument { what, reason } => Error::InvalidArgument {
+            what: format!("{series}: {what}"),
+            reason,
+        },
+        other => other,
+    }
+}
+
 /// "`q` is both variable 0 and variable 1" for the first name that
 /// repeats an earlier one; `None` if all differ.
 pub(crate) fn repeated_name<T: AsRef<str>>(names: &[T]) -> Option<String> {
@@ -385,6 +432,20 @@ mod tests {
                 .contains("`q` is both variable 0 and variable 1"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn trajectories_naming_their_variables_differently_are_not_mixed() {
+        let a = Trajectory::new(names(), vec![0.0], vec![1.0, 2.0], Some(vec![0.0; 2])).unwrap();
+        let swapped = vec!["p".to_owned(), "q".to_owned()];
+        let b = Trajectory::new(swapped, vec![0.0], vec![2.0, 1.0], Some(vec![0.0; 2])).unwrap();
+        let err = dataset_from_trajectories(&[a.clone(), b]).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("trajectory 1 has (p, q), trajectory 0 has (q, p)"),
+            "{err}"
+        );
+        assert_eq!(dataset_from_trajectories(&[a.clone(), a]).unwrap().len(), 2);
     }
 
     #[test]

@@ -24,6 +24,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::equations::{sealed, Equations, IdentificationData, Terms};
+use super::trajectory::{describe, in_series};
 use super::Trajectory;
 use crate::error::{invalid, Result};
 
@@ -125,6 +126,8 @@ impl WeakForm {
 /// let data = WeakDataset::from_trajectories(&[traj], &WeakForm::default()).unwrap();
 /// // Windows of 15 samples start at samples 0, 1, …, 25 (stride 1).
 /// assert_eq!(data.equation_count(), 26);
+/// // Named by the trajectories: identification checks the system's names.
+/// assert_eq!(data.state_names().unwrap(), ["q", "p"]);
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct WeakDataset {
@@ -134,6 +137,7 @@ pub struct WeakDataset {
     offsets: Vec<usize>,
     samples: Vec<usize>,
     weights: Vec<f64>,
+    names: Option<Vec<String>>,
 }
 
 impl WeakDataset {
@@ -148,25 +152,18 @@ impl WeakDataset {
     /// Σⱼ (∫φℓⱼ) f(xⱼ) = −Σⱼ (∫φ′ℓⱼ) xⱼ — the weak form of ẋ = f(x), no
     /// derivative estimate, both sides averaging the states' noise.
     ///
-    /// Errors if there is no trajectory, the trajectories' dimensions differ,
-    /// the form is invalid, or no trajectory is long enough for a window.
+    /// Errors if there is no trajectory, the trajectories' state names differ
+    /// (in name or order), the form is invalid, or no trajectory is long enough for a window.
     pub fn from_trajectories(trajectories: &[Trajectory], form: &WeakForm) -> Result<Self> {
         form.validate()?;
         let first = trajectories
             .first()
             .ok_or_else(|| invalid("trajectories", "at least one trajectory is required"))?;
+        super::trajectory::check_same_names(trajectories)?;
         let dim = first.dim();
         let mut data = Self::empty(dim);
+        data.names = Some(first.names().to_vec());
         for (index, trajectory) in trajectories.iter().enumerate() {
-            if trajectory.dim() != dim {
-                return Err(invalid(
-                    "trajectories",
-                    format!(
-                        "trajectory {index} has {} state variables, trajectory 0 has {dim}",
-                        trajectory.dim()
-                    ),
-                ));
-            }
             let base = data.states.len() / dim;
             data.states.extend_from_slice(trajectory.states());
             let times = trajectory.times();
@@ -176,7 +173,8 @@ impl WeakDataset {
                 .checked_add(form.window)
                 .is_some_and(|end| end <= times.len())
             {
-                data.push_window(trajectory, base, start, form)?;
+                data.push_window(trajectory, base, start, form)
+                    .map_err(|err| in_series(err, &describe(index, trajectory)))?;
                 let Some(next) = start.checked_add(form.stride) else {
                     break;
                 };
@@ -206,6 +204,7 @@ impl WeakDataset {
             offsets: vec![0],
             samples: Vec::new(),
             weights: Vec::new(),
+            names: None,
         }
     }
 
@@ -328,7 +327,8 @@ impl WeakDataset {
         &self.states
     }
 
-    /// The targets −Σⱼ ωⱼ φ′(tⱼ) xⱼ, n per equation.
+    /// The targets −Σⱼ (∫φ′ℓⱼ) xⱼ, n per equation (see
+    /// [`from_trajectories`](Self::from_trajectories)).
     pub fn targets(&self) -> &[f64] {
         &self.targets
     }
@@ -428,10 +428,15 @@ impl sealed::Sealed for WeakDataset {
                 samples: &self.samples,
                 weights: &self.weights,
             }),
+            names: self.names.as_deref(),
         }
     }
 
     fn select(&self, indices: &[usize]) -> Result<Self> {
+        // As `Dataset::select`: data without equations fit anything.
+        if indices.is_empty() {
+            return Err(invalid("equation indices", "at least one is required"));
+        }
         let count = self.targets.len() / self.dim;
         if let Some(&bad) = indices.iter().find(|&&e| e >= count) {
             return Err(invalid(
@@ -447,6 +452,7 @@ impl sealed::Sealed for WeakDataset {
             offsets: vec![0],
             samples: Vec::new(),
             weights: Vec::new(),
+            names: self.names.clone(),
         };
         for &e in indices {
             out.targets
@@ -475,6 +481,21 @@ impl sealed::Sealed for WeakDataset {
                         part.dim
                     ),
                 ));
+            }
+            if let (Some(ours), Some(theirs)) = (&first.names, &part.names) {
+                if ours != theirs {
+                    return Err(invalid(
+                        "weak-form datasets",
+                        format!(
+                            "dataset {index} has state variables ({}), dataset 0 has ({})",
+                            theirs.join(", "),
+                            ours.join(", ")
+                        ),
+                    ));
+                }
+            }
+            if all.names.is_none() {
+                all.names.clone_from(&part.names);
             }
             let (base, start) = (all.states.len() / dim, all.samples.len());
             all.states.extend_from_slice(&part.states);
@@ -614,6 +635,15 @@ mod tests {
         assert_eq!(picked.equations().target(1), equations.target(0));
         assert_eq!(picked.equations().target(0), equations.target(2));
         assert!(data.select(&[99]).is_err());
+        let err = data.select(&[]).unwrap_err();
+        assert!(
+            err.to_string().contains("at least one is required"),
+            "{err}"
+        );
+        assert_eq!(
+            picked.state_names(),
+            Some(&["q".to_owned(), "p".to_owned()][..])
+        );
     }
 
     #[test]
@@ -653,6 +683,13 @@ mod tests {
             assert!(WeakDataset::from_trajectories(std::slice::from_ref(&traj), &form).is_err());
         }
         assert!(WeakDataset::from_trajectories(&[], &WeakForm::default()).is_err());
+
+        let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        let qp = circle(t.clone(), 1.0);
+        let states = qp.states().to_vec();
+        let pq = Trajectory::new(vec!["p".into(), "q".into()], t, states, None).unwrap();
+        let err = WeakDataset::from_trajectories(&[qp, pq], &WeakForm::default()).unwrap_err();
+        assert!(err.to_string().contains("trajectory 1 has (p, q)"), "{err}");
     }
 
     fn circle(t: Vec<f64>, radius: f64) -> Trajectory {

@@ -366,9 +366,14 @@ pub fn synthesize<S: MetriplecticSystem>(
         train = Dataset::from_flat(n, train.states().to_vec(), derivatives)?;
     }
 
+    // Named as the trajectories are (noise and outliers rebuilt the data
+    // from bare numbers), so identification checks them against its system.
+    let names: Vec<String> = S::STATE_NAMES.iter().map(|&name| name.to_owned()).collect();
     Ok(SyntheticData {
-        train,
-        held_out,
+        train: train.with_state_names(names.clone())?,
+        held_out: held_out
+            .map(|data| data.with_state_names(names))
+            .transpose()?,
         trajectories,
         measured,
         train_trajectories: train_count,

@@ -42,6 +42,7 @@
 mod spline;
 mod stencil;
 
+use super::trajectory::{describe, in_series};
 use super::Trajectory;
 use crate::error::{invalid, Error, Result};
 use stencil::stencil;
@@ -244,28 +245,11 @@ pub fn estimate_derivatives(
     method.validate(times.len())?;
     let n = trajectory.dim();
     let mut derivatives = vec![0.0; times.len() * n];
-    if let DerivativeMethod::SmoothingSpline { lambda } = *method {
-        for j in 0..n {
-            let fit = spline::fit(times, &trajectory.component(j), lambda)
-                .map_err(|err| in_series(err, &format!("variable `{}`", trajectory.names()[j])))?;
-            for (out, d) in derivatives
-                .iter_mut()
-                .skip(j)
-                .step_by(n)
-                .zip(fit.derivatives)
-            {
-                *out = d;
-            }
-        }
-        return trajectory.clone().with_derivatives(derivatives);
-    }
-    for i in 0..times.len() {
-        let (start, weights) = stencil(times, i, method)?;
-        let out = &mut derivatives[i * n..(i + 1) * n];
-        for (k, w) in weights.iter().enumerate() {
-            for (o, x) in out.iter_mut().zip(trajectory.state(start + k)) {
-                *o += w * x;
-            }
+    for j in 0..n {
+        let estimates = differentiate(times, &trajectory.component(j), method)
+            .map_err(|err| in_series(err, &format!("variable `{}`", trajectory.names()[j])))?;
+        for (out, d) in derivatives.iter_mut().skip(j).step_by(n).zip(estimates) {
+            *out = d;
         }
     }
     trajectory.clone().with_derivatives(derivatives)
@@ -284,26 +268,9 @@ pub fn estimate_all(
         .iter()
         .enumerate()
         .map(|(k, t)| {
-            estimate_derivatives(t, method).map_err(|err| {
-                let name = match t.id() {
-                    Some(id) => format!("trajectory {k} (id {id:?})"),
-                    None => format!("trajectory {k}"),
-                };
-                in_series(err, &name)
-            })
+            estimate_derivatives(t, method).map_err(|err| in_series(err, &describe(k, t)))
         })
         .collect()
-}
-
-/// Says which series an invalid-argument error concerns.
-fn in_series(err: Error, series: &str) -> Error {
-    match err {
-        Error::InvalidArgument { what, reason } => Error::InvalidArgument {
-            what: format!("{series}: {what}"),
-            reason,
-        },
-        other => other,
-    }
 }
 
 /// A cubic smoothing spline fitted to one series, and the smoothing it used
