@@ -53,8 +53,9 @@ use proc_macro::TokenStream;
 ///   region where a state-dependent metric is certified (below).
 /// * `classical;` optional: the classical (GENERIC) form (below).
 /// * `reference { entropy = expr; metric = [[…]]; }` optional: a known model
-///   (for synthetic data and tests). It must fit the declared bases and the
-///   metric must be symmetric; a constant metric must be positive
+///   (for synthetic data and tests). It must fit the declared bases (a
+///   constant term of the entropy is dropped, as the basis has none: it
+///   changes neither ∇S nor the dynamics) and the metric must be symmetric; a constant metric must be positive
 ///   semidefinite (checked exactly). A metric that depends on the state
 ///   needs a `region` (below).
 ///

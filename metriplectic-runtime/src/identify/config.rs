@@ -90,7 +90,9 @@ pub struct IdentifyConfig {
     /// in its warm-up starts again from the beginning. Default `true`.
     pub warm_up: bool,
     /// Initial metric coefficients θ⁽⁰⁾ (checked positive semidefinite, and
-    /// against the support and gauge of [`search`](Self::search)).
+    /// against the support and gauge of [`search`](Self::search); not
+    /// against the searches' upper bound η: a start above it stays the
+    /// model until a metric search, which keeps K ⪯ ηI, replaces it).
     /// Default `None`: the identity metric, scaled to the gauge if one is
     /// set; with no gauge and no [`initial_entropy`](Self::initial_entropy)
     /// either, the identity times 1, 0.1 or 0.01 (while each fits the

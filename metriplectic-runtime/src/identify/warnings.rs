@@ -32,6 +32,12 @@ const DEFAULT_RATE_WINDOW: usize = 5;
 /// `docs/method.md` §3 fell 0.1–1% per iteration).
 const SLOW_RATE: f64 = 0.02;
 
+/// A fall per iteration below this is no progress but a settled run's
+/// rounding (a probe's run at a local minimum fell 1e-10 per iteration and
+/// was told it would need 1.4e13 more); the slowest genuine crawls measured
+/// fell 0.1% per iteration.
+const NEGLIGIBLE_RATE: f64 = 1e-4;
+
 /// A coefficient block of a model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum CoefficientBlock {
@@ -84,7 +90,8 @@ pub enum IdentifyWarning {
         hamiltonian_scale: f64,
     },
     /// The run reached [`IdentifyConfig::max_iterations`] while its score
-    /// was still falling: more iterations would fit better. A steady fall of
+    /// was still falling (by at least 0.01% per iteration; less is a
+    /// settled run's rounding): more iterations would fit better. A steady fall of
     /// a few per cent or less per iteration can also mean the iterates
     /// follow a curved valley of the bilinear cost, which they leave only
     /// slowly (`docs/method.md` §3); the message then says so.
@@ -211,7 +218,8 @@ pub(crate) fn progress_warning(
 /// The mean fraction by which `scores` fell per iteration over their last
 /// `window` iterations, and the iterations `target` would take at that
 /// rate (`None` for a target of 0); `None` if there are fewer than two
-/// scores, they did not fall, or the last is already at the target.
+/// scores, they fell by less than [`NEGLIGIBLE_RATE`] per iteration, or the
+/// last is already at the target.
 fn fall_rate(scores: &[f64], window: usize, target: f64) -> Option<(f64, Option<u64>)> {
     let span = window.min(scores.len().checked_sub(1)?);
     let (last, earlier) = (scores[scores.len() - 1], scores[scores.len() - 1 - span]);
@@ -219,6 +227,9 @@ fn fall_rate(scores: &[f64], window: usize, target: f64) -> Option<(f64, Option<
         return None;
     }
     let per_iteration = (last / earlier).powf(1.0 / span as f64);
+    if 1.0 - per_iteration < NEGLIGIBLE_RATE {
+        return None;
+    }
     let projected = (target > 0.0).then(|| {
         let more = (last / target).ln() / -per_iteration.ln();
         // Saturates for a fall too slow to count.
@@ -368,6 +379,9 @@ mod tests {
         assert_eq!(fall_rate(&[0.5, 0.5], 5, 0.01), None);
         assert_eq!(fall_rate(&[0.5, 0.6], 5, 0.01), None);
         assert_eq!(fall_rate(&[0.5, 0.01], 5, 0.01), None);
+        // A settled run's rounding is not a fall: 1e-10 per iteration.
+        assert_eq!(fall_rate(&[1.0, 1.0 - 1e-10, 1.0 - 2e-10], 5, 1e-9), None);
+        assert!(fall_rate(&[1.0, 0.999, 0.998], 5, 1e-9).is_some());
     }
 
     /// Above 2·10⁹ rows × columns² (where a direct SVD used to be skipped,
