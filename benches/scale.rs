@@ -28,7 +28,8 @@
 //!   identity metric on at most 2000 samples), the warm-up's iterations on
 //!   those samples, the metric, entropy and joint steps on all of them,
 //!   and the final checks. `-- --whole --noisy` runs them on the noisy
-//!   samples instead, and `--cold` without the warm-up.
+//!   samples instead, `--cold` without the warm-up and `--no-restart`
+//!   without the restart of stagnated runs.
 //!
 //! `cargo bench --bench scale` (about 20 min on 2 cores); `-- --quick` stops
 //! at q = 4000; `-- --peak` runs only the degree-6 solve at q = 16000 and
@@ -395,8 +396,9 @@ fn identification_series<S: MetriplecticSystem>(qs: &[usize], noise: f64, config
             unsolved.join(", ")
         };
         let warm_up = fit.history.iterations.iter().filter(|r| r.warm_up).count();
+        let restart = fit.history.iterations.iter().filter(|r| r.restart).count();
         println!(
-            "| {} | {q} | {:?} | {} ({warm_up}) | {} | {unsolved} | {ipm} | {wall:.1} | {inside:.1} | {:.1} | {error:.1e} |",
+            "| {} | {q} | {:?} | {} ({warm_up}, {restart}) | {} | {unsolved} | {ipm} | {wall:.1} | {inside:.1} | {:.1} | {error:.1e} |",
             S::entropy_coefficient_count(),
             fit.stop_reason,
             fit.history.iterations.len(),
@@ -437,6 +439,7 @@ fn main() {
         let noisy = args.iter().any(|a| a == "--noisy");
         let config = IdentifyConfig {
             warm_up: !args.iter().any(|a| a == "--cold"),
+            restart_on_stagnation: !args.iter().any(|a| a == "--no-restart"),
             ..IdentifyConfig::default()
         };
         whole_identifications(qs, if noisy { NOISE } else { 0.0 }, &config);
@@ -546,14 +549,19 @@ fn main() {
 /// Whole identifications at both degrees with `config` on exact samples
 /// (`noise` 0) or with Gaussian noise of that standard deviation on ẋ.
 fn whole_identifications(qs: &[usize], noise: f64, config: &IdentifyConfig) {
-    let warm_up = if config.warm_up { "" } else { ", no warm-up" };
+    let warm_up = match (config.warm_up, config.restart_on_stagnation) {
+        (true, true) => "",
+        (false, true) => ", no warm-up",
+        (true, false) => ", no restart",
+        (false, false) => ", no warm-up, no restart",
+    };
     if noise > 0.0 {
         println!("\n### Whole identifications (noise {noise:e} on ẋ{warm_up})\n");
     } else {
         println!("\n### Whole identifications (exact samples{warm_up})\n");
     }
     println!(
-        "| p | q | stop | iterations (warm-up) | solves | not Solved | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
+        "| p | q | stop | iterations (warm-up, restart) | solves | not Solved | IPM iterations | wall (s) | in the solves (s) | other (s) | held-out error |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     identification_series::<ChainDegree4>(qs, noise, config);

@@ -42,6 +42,7 @@ mod generated_code;
 mod hostile_input;
 mod hygiene;
 mod identification;
+mod local_minima;
 mod macro_errors;
 mod metric_positivity;
 mod metric_search;

@@ -115,6 +115,18 @@ pub struct IdentifyConfig {
     /// [`identify_resume`](crate::identify_resume) continues it. Default
     /// `None`: no checkpoints.
     pub checkpoint: Option<CheckpointConfig>,
+    /// Whether a run that stagnated tries a second start: the cost is
+    /// bilinear and has local minima, and those measured held a metric
+    /// smaller than the truth's. A short trial (at most 20 iterations on
+    /// the start's subsample, unrecorded) starts from the stagnated metric
+    /// times 10 (less where η bounds it) with the entropy fitted at it;
+    /// if its model scores at most 0.9 of the stagnated one's (on the
+    /// validation samples, or all the data), the run continues from it,
+    /// its iterations marked [`IterationRecord::restart`](crate::IterationRecord::restart). At most once per
+    /// run; not with a [`Gauge`](crate::Gauge), which fixes the metric's
+    /// scale. On data fitted to their noise floor the trial does not win,
+    /// and costs its iterations. Default `true`.
+    pub restart_on_stagnation: bool,
 }
 
 /// When a run that no longer improves stops.
@@ -202,6 +214,7 @@ impl Default for IdentifyConfig {
             max_failed_iterations: 3,
             scheme: IterationScheme::default(),
             checkpoint: None,
+            restart_on_stagnation: true,
         }
     }
 }

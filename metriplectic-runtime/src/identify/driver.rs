@@ -11,6 +11,7 @@ use super::config::IdentifyConfig;
 use super::cost::{data_scale, model_cost};
 use super::history::{History, IterationRecord, StopReason};
 use super::iterate::{iterate, Split};
+use super::restart::restart;
 use super::start::{initial_coefficients, start_sample};
 use super::state::RunState;
 use super::steps::iterate_on;
@@ -216,7 +217,9 @@ where
         // The checkpoint holds the state before `finish`, so finishing it
         // again gives the uninterrupted run's result (best model, polish).
         Some(StopReason::Converged | StopReason::Stagnated | StopReason::SolverFailures) => {
-            finish(data, config, &split, state)
+            let mut observer = observer;
+            let result = finish(data, config, &split, state)?;
+            restart(data, config, &split, result, &mut observer)
         }
         _ => run(data, config, &split, state, observer),
     }
@@ -236,8 +239,11 @@ where
     D: IdentificationData,
     F: FnMut(&IterationRecord, &Model<S>) -> ControlFlow<()>,
 {
-    let state = iterate(data, config, split, state, &mut observer, false)?;
-    finish(data, config, split, state)
+    // A run resumed after its restart continues the restart's phase.
+    let restarted = state.history.iterations.iter().any(|r| r.restart);
+    let state = iterate(data, config, split, state, &mut observer, false, restarted)?;
+    let result = finish(data, config, split, state)?;
+    restart(data, config, split, result, &mut observer)
 }
 
 /// The result of a stopped run: a scoring run returns its best model,
@@ -246,7 +252,7 @@ where
 /// resumed from the checkpoint of a stopped run returns the same result;
 /// the checkpoint keeps the state before it, from which a longer run
 /// continues as if it had never stopped.
-fn finish<S: MetriplecticSystem, D: IdentificationData>(
+pub(super) fn finish<S: MetriplecticSystem, D: IdentificationData>(
     data: &D,
     config: &IdentifyConfig,
     split: &Split<D>,
@@ -289,6 +295,7 @@ fn finish<S: MetriplecticSystem, D: IdentificationData>(
             validation_cost: split.validation.as_ref().map(|_| score),
             polish: true,
             warm_up: false,
+            restart: state.history.iterations.iter().any(|r| r.restart),
         });
         if let Some((best, best_score)) = best {
             if score.sum > best_score.sum {

@@ -69,6 +69,13 @@ pub struct IterationRecord {
     /// its batch is that subsample and its costs are on it.
     #[serde(default)]
     pub warm_up: bool,
+    /// `true` for an iteration after the run's restart from a larger
+    /// metric ([`IdentifyConfig::restart_on_stagnation`](crate::IdentifyConfig::restart_on_stagnation)):
+    /// the run had stagnated, and a trial from that metric scored at most
+    /// 0.9 of it. Default `false`, also for records saved before it
+    /// existed.
+    #[serde(default)]
+    pub restart: bool,
 }
 
 impl IterationRecord {
@@ -156,6 +163,7 @@ impl History {
         "joint_metric_refit",
         "validation_per_component",
         "warm_up",
+        "restart",
     ];
 
     /// Writes the history as CSV, one row per iteration, with a header
@@ -228,6 +236,7 @@ impl History {
                     .unwrap_or_default(),
             );
             row.push(r.warm_up.to_string());
+            row.push(r.restart.to_string());
             writer.write_record(&row).map_err(io)?;
         }
         writer.flush().map_err(|source| Error::Io {

@@ -60,7 +60,7 @@ impl<D: IdentificationData> Split<D> {
 }
 
 /// Iterations on `split` from `state` until a stopping rule holds; their
-/// records are marked `warm_up` as asked.
+/// records are marked `warm_up` and `restart` as asked.
 pub(super) fn iterate<S, D, F>(
     data: &D,
     config: &IdentifyConfig,
@@ -68,6 +68,7 @@ pub(super) fn iterate<S, D, F>(
     mut state: RunState<S>,
     observer: &mut F,
     warm_up: bool,
+    restart: bool,
 ) -> Result<RunState<S>>
 where
     S: MetriplecticSystem,
@@ -88,7 +89,7 @@ where
             }
         };
         let batch = batch.as_ref().unwrap_or(&split.pool);
-        let fitted = metric_is_fitted(config, &state.history, warm_up);
+        let fitted = metric_is_fitted(config, &state.history, warm_up, restart);
         let (cost_before, metric, entropy, joint) = iterate_on(batch, config, &mut state, fitted)?;
 
         let accepted = [
@@ -119,6 +120,7 @@ where
             validation_cost: None,
             polish: false,
             warm_up,
+            restart,
         };
         let cost_now = record.cost_after();
         // The score: on the validation samples, or the batch when it is all the data.

@@ -12,6 +12,7 @@ mod driver;
 mod history;
 mod iterate;
 mod json_float;
+mod restart;
 pub(crate) mod search;
 mod start;
 mod state;

@@ -214,15 +214,21 @@ fn refit_metric<S: MetriplecticSystem>(
 
 /// Whether the current model's metric is the metric search's optimum at
 /// its entropy on the coming batch: the batches are the full pool, and the
-/// previous iteration of this phase (warm-up or not) ended with an
+/// previous iteration of this phase (warm-up, restart or neither) ended with an
 /// accepted joint step whose metric [`refit_metric`] fitted at the entropy
 /// the model now has. The metric search would solve that same problem
 /// again (the solves are deterministic), so it is skipped. Derived from the
 /// history alone, so a resumed run decides as the uninterrupted one did.
-pub(super) fn metric_is_fitted(config: &IdentifyConfig, history: &History, warm_up: bool) -> bool {
+pub(super) fn metric_is_fitted(
+    config: &IdentifyConfig,
+    history: &History,
+    warm_up: bool,
+    restart: bool,
+) -> bool {
     config.batch_size.is_none()
         && history.iterations.last().is_some_and(|last| {
             last.warm_up == warm_up
+                && last.restart == restart
                 && !last.polish
                 && last.joint.as_ref().is_some_and(|joint| {
                     joint.metric_refit && joint.step.outcome == StepOutcome::Accepted

@@ -74,7 +74,7 @@ where
         interrupted |= flow.is_break();
         flow
     };
-    match iterate(sample, &phase, &split, state, &mut watch, true) {
+    match iterate(sample, &phase, &split, state, &mut watch, true, false) {
         Ok(warm) => Ok(RunState {
             history: warm.history,
             radius: warm.radius,
