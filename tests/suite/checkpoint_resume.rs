@@ -7,29 +7,13 @@ use std::path::{Path, PathBuf};
 use crate::common::*;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identify, identify_resume, identify_with_observer, CheckpointConfig, History, IdentifyConfig,
+    identify, identify_resume, identify_with_observer, CheckpointConfig, IdentifyConfig,
     IterationScheme, SearchOptions, Stagnation, StopReason, TrustRegion, Validation,
 };
 
 /// A fresh scratch directory for one test.
 fn scratch(name: &str) -> PathBuf {
     scratch_dir("checkpoint", name)
-}
-
-/// The history with wall times zeroed: everything else must be reproducible.
-fn without_timings(history: &History) -> History {
-    let mut history = history.clone();
-    for record in &mut history.iterations {
-        let joint = record.joint.as_mut().map(|j| &mut j.step);
-        for step in [Some(&mut record.metric), Some(&mut record.entropy), joint]
-            .into_iter()
-            .flatten()
-        {
-            step.report.assembly_seconds = 0.0;
-            step.report.solver_seconds = 0.0;
-        }
-    }
-    history
 }
 
 /// Algorithm 2 with joint steps (so the trust radius and the minibatch

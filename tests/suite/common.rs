@@ -9,9 +9,26 @@ pub use metriplectic::systems::{
 };
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    synthesize, InitialStates, IterationScheme, SampleTimes, SynthesisOptions, SyntheticData,
-    Validation,
+    synthesize, History, InitialStates, IterationScheme, SampleTimes, SynthesisOptions,
+    SyntheticData, Validation,
 };
+
+/// The history with wall times zeroed: everything else about a run is
+/// reproducible.
+pub fn without_timings(history: &History) -> History {
+    let mut history = history.clone();
+    for record in &mut history.iterations {
+        let joint = record.joint.as_mut().map(|j| &mut j.step);
+        for step in [Some(&mut record.metric), Some(&mut record.entropy), joint]
+            .into_iter()
+            .flatten()
+        {
+            step.report.assembly_seconds = 0.0;
+            step.report.solver_seconds = 0.0;
+        }
+    }
+    history
+}
 
 /// θ of the constant metric K = c·I for system `S`.
 pub fn identity_metric<S: MetriplecticSystem>(scale: f64) -> Vec<f64> {

@@ -3,22 +3,7 @@
 //! Clarabel's PSD cone calls into OpenBLAS, which may thread.
 
 use crate::common::*;
-use metriplectic_runtime::{identify, History, IdentifyConfig, IterationScheme, TrustRegion};
-
-fn without_timings(history: &History) -> History {
-    let mut history = history.clone();
-    for record in &mut history.iterations {
-        let joint = record.joint.as_mut().map(|j| &mut j.step);
-        for step in [Some(&mut record.metric), Some(&mut record.entropy), joint]
-            .into_iter()
-            .flatten()
-        {
-            step.report.assembly_seconds = 0.0;
-            step.report.solver_seconds = 0.0;
-        }
-    }
-    history
-}
+use metriplectic_runtime::{identify, IdentifyConfig, IterationScheme, TrustRegion};
 
 /// The run compared: Algorithm 2 with joint steps on the SO(3) system (the
 /// larger SDP blocks of the two paper systems).

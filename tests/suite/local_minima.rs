@@ -7,11 +7,11 @@ use std::ops::ControlFlow;
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identify_resume, identify_with_observer, model_cost, synthesize, CheckpointConfig, History,
+    identify_resume, identify_with_observer, model_cost, synthesize, CheckpointConfig,
     InitialStates, Noise, SampleTimes, StopReason, SynthesisOptions, SyntheticData,
 };
 
-use crate::common::scratch_dir;
+use crate::common::{scratch_dir, without_timings};
 
 metriplectic! {
     /// Friction on the momentum that grows with the position (not from the
@@ -63,22 +63,6 @@ fn error(model: &Model<PositionFriction>, data: &SyntheticData) -> f64 {
     model.compare(&truth, held_out).unwrap().relative_error
 }
 
-/// The history with wall times zeroed: everything else is reproducible.
-fn without_times(history: &History) -> History {
-    let mut history = history.clone();
-    for record in &mut history.iterations {
-        let joint = record.joint.as_mut().map(|j| &mut j.step);
-        for step in [Some(&mut record.metric), Some(&mut record.entropy), joint]
-            .into_iter()
-            .flatten()
-        {
-            step.report.assembly_seconds = 0.0;
-            step.report.solver_seconds = 0.0;
-        }
-    }
-    history
-}
-
 #[test]
 fn a_run_stuck_in_a_local_minimum_restarts_from_a_larger_metric() {
     for seed in [1, 2] {
@@ -102,8 +86,8 @@ fn a_run_stuck_in_a_local_minimum_restarts_from_a_larger_metric() {
         assert!(restarted > 0, "seed {seed}: no restart");
         // The run's own records come first, unchanged.
         let (with_history, without_history) = (
-            without_times(&with.history),
-            without_times(&without.history),
+            without_timings(&with.history),
+            without_timings(&without.history),
         );
         assert_eq!(
             with_history.iterations[..without_history.iterations.len()],
@@ -183,8 +167,8 @@ fn a_restarted_run_resumes_as_it_would_have_continued() {
         let resumed = identify_resume::<PositionFriction>(&path, &data.train, &config).unwrap();
         assert_eq!(resumed.stop_reason, whole.stop_reason, "at {stop_at}");
         assert_eq!(
-            without_times(&resumed.history),
-            without_times(&whole.history),
+            without_timings(&resumed.history),
+            without_timings(&whole.history),
             "at {stop_at}"
         );
         assert_eq!(resumed.model, whole.model, "at {stop_at}");

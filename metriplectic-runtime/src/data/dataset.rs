@@ -1,7 +1,7 @@
 //! Identification data: samples (xᵢ, ẋᵢ) of a system's state and its time
 //! derivative.
 
-use super::equations::{sealed, Equations, IdentificationData};
+use super::equations::{joined_names, sealed, Equations, IdentificationData};
 use crate::error::{invalid, DatasetError, Error, Result};
 
 /// Validated samples (xᵢ, ẋᵢ), i = 0..m, of an n-dimensional state.
@@ -208,21 +208,12 @@ impl Dataset {
                 found: other.dim,
             });
         }
-        if let (Some(ours), Some(theirs)) = (&self.names, &other.names) {
-            if ours != theirs {
-                return Err(invalid(
-                    "appended dataset",
-                    format!(
-                        "its state variables are ({}), this dataset's are ({})",
-                        theirs.join(", "),
-                        ours.join(", ")
-                    ),
-                ));
-            }
-        }
-        if self.names.is_none() {
-            self.names.clone_from(&other.names);
-        }
+        self.names = joined_names(
+            &self.names,
+            &other.names,
+            "appended dataset",
+            ("this dataset", "it"),
+        )?;
         self.states.extend_from_slice(&other.states);
         self.derivatives.extend_from_slice(&other.derivatives);
         Ok(())
@@ -286,6 +277,31 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn appending_keeps_names_and_refuses_other_ones() {
+        let named = |names: [&str; 2]| {
+            Dataset::from_flat(2, vec![1.0, 2.0], vec![0.0; 2])
+                .unwrap()
+                .with_state_names(names.map(str::to_owned).to_vec())
+                .unwrap()
+        };
+        let unnamed = Dataset::from_flat(2, vec![3.0, 4.0], vec![0.0; 2]).unwrap();
+        let mut data = unnamed.clone();
+        data.extend(&named(["q", "p"])).unwrap();
+        data.extend(&unnamed).unwrap();
+        assert_eq!(data.len(), 3);
+        assert_eq!(
+            data.state_names(),
+            Some(&["q".to_owned(), "p".to_owned()][..])
+        );
+        let err = data.extend(&named(["p", "q"])).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("it has state variables (p, q), this dataset has (q, p)"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -202,6 +202,29 @@ impl<'a> Equations<'a> {
     }
 }
 
+/// The state names of data joined from a part named `ours` (called
+/// `first` in errors) and one named `theirs` (`part`): either's when only
+/// one is named; an error about `what` when both are named and differ,
+/// since data are positional.
+pub(crate) fn joined_names(
+    ours: &Option<Vec<String>>,
+    theirs: &Option<Vec<String>>,
+    what: &str,
+    (first, part): (&str, &str),
+) -> Result<Option<Vec<String>>> {
+    match (ours, theirs) {
+        (Some(ours), Some(theirs)) if ours != theirs => Err(invalid(
+            what,
+            format!(
+                "{part} has state variables ({}), {first} has ({})",
+                theirs.join(", "),
+                ours.join(", ")
+            ),
+        )),
+        _ => Ok(ours.clone().or_else(|| theirs.clone())),
+    }
+}
+
 /// Errors unless `data` has the system's state dimension.
 pub(crate) fn check_dataset<S: MetriplecticSystem>(data: &impl IdentificationData) -> Result<()> {
     if data.dim() != S::DIM {

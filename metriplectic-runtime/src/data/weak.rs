@@ -23,7 +23,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::equations::{sealed, Equations, IdentificationData, Terms};
+use super::equations::{joined_names, sealed, Equations, IdentificationData, Terms};
 use super::trajectory::{describe, in_series};
 use super::Trajectory;
 use crate::error::{invalid, Result};
@@ -482,21 +482,12 @@ impl sealed::Sealed for WeakDataset {
                     ),
                 ));
             }
-            if let (Some(ours), Some(theirs)) = (&first.names, &part.names) {
-                if ours != theirs {
-                    return Err(invalid(
-                        "weak-form datasets",
-                        format!(
-                            "dataset {index} has state variables ({}), dataset 0 has ({})",
-                            theirs.join(", "),
-                            ours.join(", ")
-                        ),
-                    ));
-                }
-            }
-            if all.names.is_none() {
-                all.names.clone_from(&part.names);
-            }
+            all.names = joined_names(
+                &all.names,
+                &part.names,
+                "weak-form datasets",
+                ("dataset 0", &format!("dataset {index}")),
+            )?;
             let (base, start) = (all.states.len() / dim, all.samples.len());
             all.states.extend_from_slice(&part.states);
             all.targets.extend_from_slice(&part.targets);
