@@ -118,7 +118,8 @@ pub struct IdentifyConfig {
     /// Whether a run that stagnated tries a second start: the cost is
     /// bilinear and has local minima, and those measured held a metric
     /// smaller than the truth's. A short trial (at most 20 iterations on
-    /// the start's subsample, unrecorded) starts from the stagnated metric
+    /// the start's subsample, unrecorded, ended once it beats the
+    /// stagnated model there or stops improving) starts from the stagnated metric
     /// times 10 (less where η bounds it) with the entropy fitted at it;
     /// if its model scores at most 0.9 of the stagnated one's (on the
     /// validation samples, or all the data), the run continues from it,

@@ -8,7 +8,7 @@
 use std::ops::ControlFlow;
 
 use super::config::{IdentifyConfig, Stagnation, Validation};
-use super::cost::model_cost;
+use super::cost::{data_scale, model_cost};
 use super::driver::Identification;
 use super::history::{IterationRecord, StopReason};
 use super::iterate::{iterate, Split};
@@ -30,12 +30,17 @@ const TRIAL_ITERATIONS: usize = 20;
 /// The trial replaces the run only if it scores at most this fraction of
 /// the stagnated model's score: a noise floor is reached from any start
 /// alike, and 10% below the run is no difference of rounding or noise. On
-/// the measured local minimum with noise of 1e-3 on ẋ the trial scored
-/// 0.36–0.51 of the run (at the noise floor), on exact data 2e-5.
+/// the measured local minimum with noise of 1e-3 on ẋ the restarted runs
+/// ended at 0.36–0.51 of the stagnated cost (the noise floor), on exact
+/// data at 2e-5 of it.
 const RESTART_GAIN: f64 = 0.9;
 /// The trial stops when its best score fell by less than this in its last
-/// [`TRIAL_WINDOW`] iterations: it only has to show where it leads, and
-/// at a noise floor it costs little that way.
+/// [`TRIAL_WINDOW`] iterations, or as soon as it scores [`RESTART_GAIN`] of
+/// the stagnated model on its subsample: it only has to show where it
+/// leads, and its iterations are what the restart costs a run at a noise
+/// floor. (Stopping at the first iteration that does not halve the cost,
+/// as the warm-up does, ended the trials on the measured local minimum
+/// before they left it.)
 const TRIAL_PROGRESS: f64 = 0.1;
 /// See [`TRIAL_PROGRESS`].
 const TRIAL_WINDOW: usize = 2;
@@ -125,6 +130,11 @@ fn trial<S: MetriplecticSystem, D: IdentificationData>(
         .iter()
         .map(|v| v * scale)
         .collect();
+    let sample = start_sample::<S, D>(pool, config)?;
+    let batch = sample.as_ref().unwrap_or(pool);
+    // "Converged" once it beats the stagnated model here: a tolerance
+    // relative to the batch's scale, as every tolerance is.
+    let target = RESTART_GAIN * model_cost(model, batch)?.per_component / data_scale(batch);
     let phase = IdentifyConfig {
         batch_size: None,
         validation: Validation::None,
@@ -132,14 +142,13 @@ fn trial<S: MetriplecticSystem, D: IdentificationData>(
         warm_up: false,
         checkpoint: None,
         max_iterations: TRIAL_ITERATIONS,
+        tolerance: target.max(config.tolerance),
         stagnation: Some(Stagnation {
             window: TRIAL_WINDOW,
             relative_improvement: TRIAL_PROGRESS,
         }),
         ..config.clone()
     };
-    let sample = start_sample::<S, D>(pool, config)?;
-    let batch = sample.as_ref().unwrap_or(pool);
     let entropy = fitted_start::<S>(batch, &phase, &metric)?;
     let Ok(start) = Model::<S>::new(entropy, metric) else {
         return Ok(None);
