@@ -14,6 +14,13 @@
 //! −εΠ∇E = 0. When H lies in the entropy basis (its coefficients h there),
 //! that is the coefficient direction (δθ, δψ) = (θ, −(ψ + h)), and the
 //! report names it.
+//!
+//! A direction can also be hidden by the fit's own residual: when a change
+//! along it as large as the whole coefficient vector moves the fit by less
+//! than the residual does, noise or an unmodelled part of the data decide
+//! it. Noisy data need this: the noise-fitted terms of a fit break an
+//! exact degeneracy of the model by an amount of the noise's size, and the
+//! singular values of those directions grow with the noise.
 
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -25,6 +32,7 @@ use crate::identify::SearchOptions;
 use crate::model::classical::{self, Equalities};
 use crate::model::{polynomial, Model};
 use crate::solve::linalg::{least_squares, triangular_factor_by_blocks};
+use crate::solve::Regression;
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
 /// Options of [`identifiability`].
@@ -34,7 +42,9 @@ pub struct IdentifiabilityOptions {
     /// Directions whose singular value (of the column-normalised Jacobian,
     /// relative to its largest) is at most this count as undetermined.
     /// Default 1e-8: far below what noise-free fits reach (their residuals
-    /// are 1e-12 and smaller) and far above rounding.
+    /// are 1e-12 and smaller) and far above rounding. Directions up to the
+    /// fit's [`misfit`](Identifiability::misfit), when that is larger,
+    /// count as undetermined too ([`FlatKind::WithinMisfit`]).
     pub tolerance: f64,
     /// The parameterisation the run used: its support (coefficients held at
     /// zero are not unknowns), SOS tables (which metric coefficients the
@@ -64,6 +74,12 @@ pub enum FlatKind {
     /// particular system): more varied data, a smaller basis, a gauge or a
     /// support fix it.
     Data,
+    /// A direction the data would determine without their misfit: a change
+    /// along it as large as the whole coefficient vector moves the fit by
+    /// less than the fit's residual ([`Identifiability::misfit`]), so noise
+    /// or an unmodelled part of the data decide it. Less noise, more
+    /// varied data or a smaller basis fix it.
+    WithinMisfit,
 }
 
 /// A combination of coefficients the data cannot determine.
@@ -112,6 +128,15 @@ pub struct Identifiability {
     /// model lies along them. 0 when read from an older report.
     #[serde(default)]
     pub excluded_by_positivity: usize,
+    /// The fit's residual against the effect of its coefficients,
+    /// ‖r‖ / (σ_max ‖D c‖) (r the model's residual on the data, D c its
+    /// column-normalised coefficients, σ_max the largest singular value):
+    /// the relative singular value below which a change as large as the
+    /// coefficient vector moves the fit by less than the residual
+    /// ([`FlatKind::WithinMisfit`]). About 1e-15 for an exact fit; 0 when
+    /// the model has no coefficients or is read from an older report.
+    #[serde(default)]
+    pub misfit: f64,
 }
 
 impl Identifiability {
@@ -144,7 +169,7 @@ impl std::fmt::Display for Identifiability {
         }
         writeln!(
             f,
-            "not identifiable: the data determine {} of {} coefficient combinations{}; undetermined:",
+            "not identifiable: the data determine {} of {} coefficient combinations{}{}; undetermined:",
             self.rank,
             self.unknowns,
             if self.excluded_by_positivity > 0 {
@@ -152,6 +177,15 @@ impl std::fmt::Display for Identifiability {
                     " (with K ⪰ 0, which excludes {} flat direction(s) of the fit)",
                     self.excluded_by_positivity
                 )
+            } else {
+                String::new()
+            },
+            if self
+                .flat_directions
+                .iter()
+                .any(|d| d.kind == FlatKind::WithinMisfit)
+            {
+                format!(" beyond the fit's misfit {:.2e}", self.misfit)
             } else {
                 String::new()
             }
@@ -165,6 +199,7 @@ impl std::fmt::Display for Identifiability {
                     "scale symmetry K -> cK with E/c (Π∇E = 0 on the data) or S/c (classical form)"
                 }
                 FlatKind::Data => "not determined by these data",
+                FlatKind::WithinMisfit => "within the misfit: the fit's residual hides it",
             };
             writeln!(
                 f,
@@ -207,7 +242,11 @@ fn abbreviate(text: &str, limit: usize) -> std::borrow::Cow<'_, str> {
 /// the structural scale symmetry (K, E) ↦ (cK, E/c) holds on the data.
 ///
 /// Columns are normalised to unit length first, so that the singular values
-/// do not depend on the units of the coefficients. Errors on a dataset of
+/// do not depend on the units of the coefficients. A direction counts as
+/// undetermined when its relative singular value is at most the options'
+/// tolerance or the fit's [`misfit`](Identifiability::misfit), whichever is
+/// larger: on noisy data the report is of what the data determine beyond
+/// their noise, not of the model's exact symmetries alone. Errors on a dataset of
 /// the wrong dimension, a support or gauge that does not fit `S`, or a
 /// failed singular value decomposition.
 pub fn identifiability<S: MetriplecticSystem>(
@@ -313,7 +352,14 @@ pub fn identifiability<S: MetriplecticSystem>(
         .unwrap_or(0.0)
         .max(f64::MIN_POSITIVE);
     let relative: Vec<f64> = singular.iter().map(|s| s / top).collect();
-    let rank = relative.iter().filter(|&&s| s > options.tolerance).count();
+    let misfit = misfit(
+        &entropy_rows,
+        psi,
+        scaled_size(&scale, &free_theta, &free_psi, theta, psi),
+        top,
+    );
+    let cut = options.tolerance.max(misfit);
+    let rank = relative.iter().filter(|&&s| s > cut).count();
 
     // The scale direction in scaled coordinates: (θ, −(ψ + h)), E ↦ E/c,
     // if H is in the entropy basis (h its coefficients); for a classical
@@ -380,7 +426,12 @@ pub fn identifiability<S: MetriplecticSystem>(
         }
     }
     for direction in remaining {
-        flat.push((FlatKind::Data, direction));
+        let kind = if stretch(&direction) <= options.tolerance {
+            FlatKind::Data
+        } else {
+            FlatKind::WithinMisfit
+        };
+        flat.push((kind, direction));
     }
     let flat_directions = flat
         .into_iter()
@@ -397,7 +448,51 @@ pub fn identifiability<S: MetriplecticSystem>(
         gauge_fixed,
         flat_directions,
         excluded_by_positivity: excluded.len(),
+        misfit,
     })
+}
+
+/// ‖D c‖ for the free coefficients c = (θ, ψ) scaled by their column norms D.
+fn scaled_size(
+    scale: &[f64],
+    free_theta: &[usize],
+    free_psi: &[usize],
+    theta: &[f64],
+    psi: &[f64],
+) -> f64 {
+    let values = free_theta
+        .iter()
+        .map(|&t| theta[t])
+        .chain(free_psi.iter().map(|&k| psi[k]));
+    values
+        .zip(scale)
+        .map(|(c, d)| (c * d).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// [`Identifiability::misfit`]: the model's residual on the data (the
+/// entropy regression at its metric, so the whole field's residual) over
+/// `top` times the size of its scaled coefficients; 0 without coefficients.
+fn misfit(entropy_rows: &Regression, psi: &[f64], coefficients: f64, top: f64) -> f64 {
+    let width = entropy_rows.width;
+    let residual = entropy_rows
+        .target
+        .iter()
+        .enumerate()
+        .map(|(i, &b)| {
+            let row = &entropy_rows.rows[i * width..(i + 1) * width];
+            let fitted: f64 = row.iter().zip(psi).map(|(a, c)| a * c).sum();
+            (fitted - b).powi(2)
+        })
+        .sum::<f64>()
+        .sqrt();
+    let effect = top * coefficients;
+    if effect > 0.0 && residual.is_finite() {
+        residual / effect
+    } else {
+        0.0
+    }
 }
 
 /// States at which `excluded_by_positivity` reads the metric's null space.
@@ -617,7 +712,7 @@ fn readable<S: MetriplecticSystem>(
 
 /// The coefficients h of H in the entropy basis (∇H = J(x)ᵀh on the data's
 /// states), or `None` if H is not in its span (relative residual above 1e-9).
-fn hamiltonian_coefficients<S: MetriplecticSystem>(
+pub(crate) fn hamiltonian_coefficients<S: MetriplecticSystem>(
     data: &impl IdentificationData,
 ) -> Option<Vec<f64>> {
     let states = data_states(data);
@@ -649,7 +744,7 @@ fn hamiltonian_coefficients<S: MetriplecticSystem>(
 }
 
 /// The distinct sampled states of the data.
-fn data_states(data: &impl IdentificationData) -> Vec<&[f64]> {
+pub(crate) fn data_states(data: &impl IdentificationData) -> Vec<&[f64]> {
     let equations = data.equations();
     equations.states.chunks_exact(equations.dim).collect()
 }
@@ -741,6 +836,7 @@ mod tests {
             gauge_fixed: false,
             flat_directions: vec![direction; 8],
             excluded_by_positivity: 0,
+            misfit: 0.0,
         };
         let text = report.to_string();
         assert_eq!(
