@@ -64,6 +64,9 @@ pub struct Summary {
     pub identifiable: bool,
     /// The smallest relative singular value of the dense fit's Jacobian.
     pub smallest_singular_value: f64,
+    /// The dense fit's misfit: relative singular values up to it count as
+    /// undetermined ([`Identifiability::misfit`](metriplectic_runtime::Identifiability::misfit)).
+    pub misfit: f64,
     /// The combinations the data cannot determine (descriptions).
     pub unidentifiable_directions: Vec<String>,
     /// Entropy terms of the dense fit with |ψ| above 1e-3 of the largest.
@@ -234,6 +237,7 @@ pub fn run(options: &Options) -> Result<Summary> {
         noise: options.noise,
         identifiable: identifiable.is_identifiable(),
         smallest_singular_value: identifiable.singular_values.last().copied().unwrap_or(0.0),
+        misfit: identifiable.misfit,
         unidentifiable_directions: identifiable
             .flat_directions
             .iter()

@@ -5,7 +5,7 @@
 
 mod bootstrap;
 mod degrees;
-mod identifiability;
+pub(crate) mod identifiability;
 mod refit;
 mod sparse;
 

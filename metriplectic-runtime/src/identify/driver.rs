@@ -34,9 +34,12 @@ pub struct Identification<S: MetriplecticSystem> {
     /// Why the run stopped.
     pub stop_reason: StopReason,
     /// What the data cannot determine, and whether the run stopped at its
-    /// iteration cap while still improving (empty when the data determine
-    /// every coefficient and the run ended on its own): read these before
-    /// trusting the coefficients.
+    /// iteration cap while still improving: read these before trusting the
+    /// coefficients. Empty when the run ended on its own, each block's
+    /// coefficients are determined at the other's value, and the scale
+    /// (K, E) ↦ (cK, E/c) is fixed; combinations across the two blocks
+    /// that the data leave free are the
+    /// [`identifiability`](crate::identifiability) report's to find.
     pub warnings: Vec<IdentifyWarning>,
 }
 

@@ -8,13 +8,14 @@ use serde::{Deserialize, Serialize};
 use super::config::IdentifyConfig;
 use super::history::History;
 use super::search::{entropy_regression, metric_regression};
+use crate::analysis::identifiability::{data_states, hamiltonian_coefficients};
 use crate::data::IdentificationData;
 use crate::error::Result;
 use crate::model::classical::{self, Equalities};
 use crate::model::Model;
 use crate::solve::linalg::{singular_values, triangular_factor};
 use crate::solve::Regression;
-use crate::system::MetriplecticSystem;
+use crate::system::{CertificateMode, MetriplecticSystem};
 
 /// Singular values below this fraction of the largest count as zero.
 const RANK_TOLERANCE: f64 = 1e-12;
@@ -109,6 +110,30 @@ pub enum IdentifyWarning {
         /// when the target is 0.
         projected_iterations: Option<u64>,
     },
+    /// The data cannot tell the model from (cK, E/c) for any c > 0: Π∇E = 0
+    /// on them (‖Π∇E‖ below 1e-8 of the field's size over the data, or
+    /// below the fit's relative residual where that is larger), so the
+    /// field is K∇E alone and the fit picked one scale of K and E; in the
+    /// classical form (cK, S/c) fits any data as well as (K, S). Only the
+    /// field and the product of the scales are determined. A
+    /// [`Gauge`](crate::Gauge) fixes the scale. Not raised with a gauge, a
+    /// zero metric or entropy, or when E/c − H lies outside the entropy
+    /// basis or its support.
+    ScaleSymmetry {
+        /// Whether it is the classical form's (K, S) ↦ (cK, S/c).
+        classical: bool,
+    },
+    /// `outside` of the data's `states` lie outside the region of a system
+    /// declared with `certificate on region`: the model's dE/dt ≥ 0 is
+    /// proved only inside the region, so nothing certifies it where those
+    /// data are. Enlarge the region or drop `certificate on region` (the
+    /// default mode proves K(x) ⪰ 0 for every state).
+    DataOutsideRegion {
+        /// Distinct data states outside the region.
+        outside: usize,
+        /// Distinct data states.
+        states: usize,
+    },
 }
 
 impl std::fmt::Display for IdentifyWarning {
@@ -147,6 +172,24 @@ impl std::fmt::Display for IdentifyWarning {
                 "the coefficient bound η = {eta:e} is below the Hamiltonian's largest coefficient \
                  {hamiltonian_scale:e}: no entropy within it can outweigh H; raise \
                  SearchOptions::eta or leave it None (max(20, 4h))"
+            ),
+            Self::ScaleSymmetry { classical: true } => write!(
+                f,
+                "(cK, S/c) fits any data as well as (K, S) for every c > 0: the scale of the \
+                 metric and the entropy is not determined, only the field; fix it with \
+                 SearchOptions::gauge"
+            ),
+            Self::ScaleSymmetry { classical: false } => write!(
+                f,
+                "Π∇E = 0 on the data, so (cK, E/c) fits as well as (K, E) for every c > 0: the \
+                 scale of the metric and the free energy is not determined, only the field; fix \
+                 it with SearchOptions::gauge"
+            ),
+            Self::DataOutsideRegion { outside, states } => write!(
+                f,
+                "{outside} of the {states} data states lie outside the region the metric is \
+                 certified on (`certificate on region`): dE/dt ≥ 0 is not proved where they are; \
+                 enlarge the region or drop `certificate on region`"
             ),
             Self::StillImproving {
                 cost,
@@ -301,7 +344,102 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             });
         }
     }
+    if let Some(certificate) = S::REGION_CERTIFICATE {
+        if certificate.mode == CertificateMode::OnRegion {
+            let states = data_states(data);
+            let outside = states
+                .iter()
+                .filter(|x| !certificate.region.contains(x))
+                .count();
+            if outside > 0 {
+                warnings.push(IdentifyWarning::DataOutsideRegion {
+                    outside,
+                    states: states.len(),
+                });
+            }
+        }
+    }
+    if scale_is_free(data, model, config, &entropy) {
+        warnings.push(IdentifyWarning::ScaleSymmetry {
+            classical: S::CLASSICAL.is_some(),
+        });
+    }
     Ok(warnings)
+}
+
+/// ‖Π∇E‖ over the data below this fraction of the field's, or below the
+/// fit's relative residual if that is larger: the scale symmetry holds
+/// (the identifiability report's tolerance).
+const SCALE_TOLERANCE: f64 = 1e-8;
+
+/// Whether the data leave the scale (K, E) ↦ (cK, E/c) free, or in the
+/// classical form (K, S) ↦ (cK, S/c), with no gauge to fix it. Along
+/// c = 1 + ε the field changes by −εΠ∇E (classical: −εΠ∇S = 0), so the
+/// test is Π∇E = 0 on the data, provided E/c − H stays in the entropy
+/// basis and its support (H's coefficients there exist and ψ + h is zero
+/// where the support holds ψ at zero). On noisy data "= 0" is within the
+/// fit's relative residual (from `entropy`, the entropy regression at the
+/// model's metric): doubling K then changes the field by less than the
+/// misfit does.
+fn scale_is_free<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+    model: &Model<S>,
+    config: &IdentifyConfig,
+    entropy: &Regression,
+) -> bool {
+    let psi = model.entropy_coefficients();
+    let some = |v: &[f64]| v.iter().any(|&c| c != 0.0);
+    if config.search.gauge.is_some() || !some(model.metric_coefficients()) || !some(psi) {
+        return false;
+    }
+    if S::CLASSICAL.is_some() {
+        return true;
+    }
+    let n = S::DIM;
+    let (mut gradient, mut poisson, mut field) = (vec![0.0; n], vec![0.0; n * n], vec![0.0; n]);
+    let (mut poisson_part, mut whole) = (0.0_f64, 0.0_f64);
+    for x in data_states(data) {
+        model.free_energy_gradient_unchecked(x, &mut gradient);
+        model.vector_field_unchecked(x, &mut field);
+        S::poisson(x, &mut poisson);
+        for (row, f) in poisson.chunks_exact(n).zip(&field) {
+            let value: f64 = row.iter().zip(&gradient).map(|(a, g)| a * g).sum();
+            poisson_part += value * value;
+            whole += f * f;
+        }
+    }
+    let width = entropy.width;
+    let residual = entropy
+        .target
+        .iter()
+        .zip(entropy.rows.chunks_exact(width.max(1)))
+        .map(|(b, row)| {
+            let fitted: f64 = row.iter().zip(psi).map(|(a, c)| a * c).sum();
+            (fitted - b).powi(2)
+        })
+        .sum::<f64>();
+    // Relative sizes: the states' Π∇E against their field, the equations'
+    // residual against their targets (weak-form equations are integrals).
+    let measured = data.equations().targets.iter().map(|y| y * y).sum::<f64>();
+    let misfit = if measured > 0.0 {
+        (residual / measured).sqrt()
+    } else {
+        0.0
+    };
+    // Cheap first: H's coefficients take a least-squares solve.
+    if !(whole > 0.0 && poisson_part.sqrt() <= SCALE_TOLERANCE.max(misfit) * whole.sqrt()) {
+        return false;
+    }
+    let Some(h) = hamiltonian_coefficients::<S>(data) else {
+        return false;
+    };
+    let free = config.search.support.free_entropy::<S>();
+    let shifted: Vec<f64> = psi.iter().zip(&h).map(|(a, b)| a + b).collect();
+    let size = shifted.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let held = (0..shifted.len())
+        .filter(|k| free.binary_search(k).is_err())
+        .fold(0.0_f64, |m, k| m.max(shifted[k].abs()));
+    size > 0.0 && held <= 1e-9 * size
 }
 
 /// Numerical rank of the regression's `columns` on the subspace where the
