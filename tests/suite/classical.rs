@@ -8,7 +8,8 @@ use metriplectic::classical::residuals;
 use metriplectic::systems::{classical_rigid_body_data, ClassicalRigidBody};
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identifiability, FlatKind, Gauge, IdentifiabilityOptions, IdentifyConfig, SearchOptions,
+    identifiability, select_degrees, DegreeOptions, FlatKind, Gauge, IdentifiabilityOptions,
+    IdentifyConfig, IdentifyWarning, SearchOptions,
 };
 
 #[test]
@@ -31,6 +32,53 @@ fn a_cold_start_identifies_the_classical_body_under_its_constraints() {
         FlatKind::ScaleSymmetry,
         "{report}"
     );
+    // The run says so itself: (cK, S/c) fits any data as well.
+    assert!(
+        fit.warnings
+            .contains(&IdentifyWarning::ScaleSymmetry { classical: true }),
+        "{:?}",
+        fit.warnings
+    );
+}
+
+/// Degree selection with its default caps: metric degree 0 holds no
+/// classical metric of the rigid body (K∇H ≡ 0 needs K to vary with the
+/// state), so it is skipped and said to be, not an error for the whole
+/// selection (a probe found "the default start metric has terms the support
+/// holds at zero" there).
+#[test]
+fn degree_selection_skips_metric_caps_without_a_classical_metric() {
+    let train = classical_rigid_body_data(300, 11);
+    let validation = classical_rigid_body_data(150, 12);
+    let selection = select_degrees::<ClassicalRigidBody, _>(
+        &train,
+        &validation,
+        &IdentifyConfig::default(),
+        &DegreeOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(selection.skipped_metric_degrees, vec![0]);
+    let chosen = &selection.candidates[selection.chosen];
+    assert_eq!(chosen.metric_degree, 2, "{:#?}", selection.candidates);
+    assert_eq!(chosen.entropy_degree, 4, "{:#?}", selection.candidates);
+    assert!(
+        chosen.validation.per_component < 1e-8,
+        "{:#?}",
+        selection.candidates
+    );
+    // Only degree 0 asked for: nothing to try, and the error says why.
+    let error = select_degrees::<ClassicalRigidBody, _>(
+        &train,
+        &validation,
+        &IdentifyConfig::default(),
+        &DegreeOptions {
+            metric: Some(vec![0]),
+            ..DegreeOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(error.contains("K∇H ≡ 0"), "{error}");
 }
 
 /// The model meets its classical rows to rounding, and its field conserves

@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 use super::refit::{preferred, refit};
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
-use crate::identify::{Cost, IdentifyConfig, Support};
+use crate::identify::start::default_start_metric;
+use crate::identify::{Cost, IdentifyConfig, SearchOptions, Support};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -63,6 +64,10 @@ pub struct DegreeSelection<S: MetriplecticSystem> {
     pub chosen: usize,
     /// Every candidate tried, by increasing entropy then metric degree.
     pub candidates: Vec<DegreeCandidate>,
+    /// Metric degrees not tried because no non-zero metric of a classical
+    /// system (K∇H ≡ 0) lies within their caps and the support, e.g. 0
+    /// when ∇H is not constant. Empty for other systems.
+    pub skipped_metric_degrees: Vec<u32>,
 }
 
 /// Identifies `S` on `train` at every pair of degree caps of `options` and
@@ -95,6 +100,8 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
     if entropy_degrees.is_empty() || metric_degrees.is_empty() {
         return Err(invalid("degrees", "no entropy or no metric degree to try"));
     }
+    let (metric_degrees, skipped_metric_degrees) =
+        classical_metric_degrees::<S>(&metric_degrees, config)?;
     let mut candidates = Vec::new();
     let mut fits = Vec::new();
     let mut seen = Vec::new();
@@ -136,5 +143,52 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
         support,
         chosen,
         candidates,
+        skipped_metric_degrees,
     })
+}
+
+/// The metric degrees of `wanted` whose caps hold a non-zero metric, and
+/// those that do not. Only a classical system can lack one (K∇H ≡ 0 ties
+/// the metric to H's gradient): a cap holds one if the run's start metric
+/// lies within it, or the default start metric can be built there. Errors
+/// if no degree is left.
+fn classical_metric_degrees<S: MetriplecticSystem>(
+    wanted: &[u32],
+    config: &IdentifyConfig,
+) -> Result<(Vec<u32>, Vec<u32>)> {
+    if S::CLASSICAL.is_none() {
+        return Ok((wanted.to_vec(), Vec::new()));
+    }
+    let (mut kept, mut skipped) = (Vec::new(), Vec::new());
+    for &s in wanted {
+        let caps = Support::degree_caps::<S>(S::ENTROPY_DEGREE, s)?;
+        let search = SearchOptions {
+            support: config
+                .search
+                .support
+                .clone()
+                .with_zeros(&[], caps.metric_zeros()),
+            ..config.search.clone()
+        };
+        let given = config.initial_metric.as_deref().is_some_and(|metric| {
+            metric.iter().any(|&t| t != 0.0)
+                && search.support.check_model("start", &[], metric).is_ok()
+        });
+        if given || default_start_metric::<S>(&search).is_ok() {
+            kept.push(s);
+        } else {
+            skipped.push(s);
+        }
+    }
+    if kept.is_empty() {
+        return Err(invalid(
+            "metric degrees",
+            format!(
+                "no metric degree in {wanted:?} holds a non-zero classical metric (K∇H ≡ 0) \
+                 within its cap and the support; try higher degrees, up to the declared {}",
+                S::METRIC_DEGREE
+            ),
+        ));
+    }
+    Ok((kept, skipped))
 }

@@ -14,7 +14,7 @@ mod iterate;
 mod json_float;
 mod restart;
 pub(crate) mod search;
-mod start;
+pub(crate) mod start;
 mod state;
 mod steps;
 mod support;

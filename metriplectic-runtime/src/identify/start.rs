@@ -41,7 +41,7 @@ pub(super) fn initial_coefficients<S: MetriplecticSystem>(
 /// that, that identity projected onto K∇H ≡ 0 if the projection is a
 /// non-zero metric the certificate accepts; scaled to the gauge if one is
 /// set. Always within the support, or an error.
-pub(super) fn default_start_metric<S: MetriplecticSystem>(
+pub(crate) fn default_start_metric<S: MetriplecticSystem>(
     options: &SearchOptions,
 ) -> Result<Vec<f64>> {
     // The identity within the support: zeroing diagonal entries of a
