@@ -7,8 +7,8 @@
 use metriplectic::systems::{reference_samples, DragDuffing, DragRigidBody};
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    metric_search, CertificateMode, IdentifyConfig, Region, SearchOptions, SolveStatus,
-    SolverBackend, SolverSettings,
+    metric_search, CertificateMode, IdentifyConfig, IdentifyWarning, Region, SearchOptions,
+    SolveStatus, SolverBackend, SolverSettings,
 };
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
@@ -224,6 +224,27 @@ fn model_files_carry_the_region_mode_and_certificate() {
     value["certificate"]["lower"][0]["size"] = 2.into();
     let error = Model::<DragDuffing>::from_json(&value.to_string()).unwrap_err();
     assert!(error.to_string().contains("lower block 1"), "{error}");
+
+    // A certificate of the right shape that proves nothing (its Gram
+    // matrices negated, or kept beside a metric edited to twice its value)
+    // is refused too: it loaded before, a false proof kept with the model.
+    let mut negated: serde_json::Value = serde_json::from_str(&json).unwrap();
+    for block in negated["certificate"]["lower"].as_array_mut().unwrap() {
+        for v in block["values"].as_array_mut().unwrap() {
+            *v = (-v.as_f64().unwrap()).into();
+        }
+    }
+    let mut stale: serde_json::Value = serde_json::from_str(&json).unwrap();
+    for v in stale["metric"].as_array_mut().unwrap() {
+        *v = (2.0 * v.as_f64().unwrap()).into();
+    }
+    for edited in [negated, stale] {
+        let error = Model::<DragDuffing>::from_json(&edited.to_string()).unwrap_err();
+        assert!(
+            error.to_string().contains("does not prove this metric"),
+            "{error}"
+        );
+    }
 }
 
 metriplectic! {
@@ -329,4 +350,68 @@ fn the_region_check_does_not_depend_on_the_metric_scale() {
         Model::<OnTheBoxOnly>::new(entropy.clone(), scaled(1.0, factor))
             .unwrap_or_else(|e| panic!("factor {factor}: {e}"));
     }
+}
+
+/// Data outside the region of `certificate on region` are where nothing
+/// proves dE/dt ≥ 0: the identification says how many there are (a probe's
+/// data centred far outside the ball came back with no warning).
+#[test]
+fn data_outside_an_on_region_certificate_are_a_warning() {
+    let exponent = |e: [u32; 2]| {
+        OnTheBoxOnly::ENTROPY_EXPONENTS
+            .iter()
+            .position(|x| x == &e)
+            .unwrap()
+    };
+    let mut entropy = vec![0.0; OnTheBoxOnly::entropy_coefficient_count()];
+    entropy[exponent([2, 0])] = -1.0;
+    entropy[exponent([0, 2])] = -1.0;
+    let truth = Model::<OnTheBoxOnly>::new(entropy, shrinking_metric::<OnTheBoxOnly>(1.0)).unwrap();
+    // 40 states in the box, 10 beyond it in q (where 1 − q² is still positive).
+    let states: Vec<[f64; 2]> = (0..50)
+        .map(|i| {
+            let t = i as f64 / 50.0;
+            let q = if i < 40 {
+                -0.45 + 0.9 * t * 1.25
+            } else {
+                0.6 + 0.3 * (t - 0.8) * 5.0
+            };
+            [q, (7.0 * t).sin()]
+        })
+        .collect();
+    let derivatives: Vec<[f64; 2]> = states
+        .iter()
+        .map(|x| {
+            let mut f = [0.0; 2];
+            truth.vector_field(x, &mut f).unwrap();
+            f
+        })
+        .collect();
+    let data = Dataset::from_rows(2, &states, &derivatives).unwrap();
+    let fit = identify::<OnTheBoxOnly>(&data, &IdentifyConfig::default()).unwrap();
+    assert!(
+        fit.warnings.contains(&IdentifyWarning::DataOutsideRegion {
+            outside: 10,
+            states: 50
+        }),
+        "{:?}",
+        fit.warnings
+    );
+    let text = fit
+        .warnings
+        .iter()
+        .map(ToString::to_string)
+        .collect::<String>();
+    assert!(text.contains("10 of the 50 data states"), "{text}");
+
+    // Inside the box only: no such warning.
+    let inside = Dataset::from_rows(2, &states[..40], &derivatives[..40]).unwrap();
+    let fit = identify::<OnTheBoxOnly>(&inside, &IdentifyConfig::default()).unwrap();
+    assert!(
+        !fit.warnings
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::DataOutsideRegion { .. })),
+        "{:?}",
+        fit.warnings
+    );
 }

@@ -48,7 +48,7 @@ pub(super) fn iterate_on<S: MetriplecticSystem>(
         let search = metric_search::<S>(batch, model.entropy_coefficients(), options)?;
         decide(model, cost_before, search.report, |m| {
             *m = Model::new(m.entropy_coefficients().to_vec(), search.coefficients)?
-                .with_certificate(search.certificate)?;
+                .with_certificate_if_it_holds(search.certificate);
             Ok(())
         })
     };
@@ -67,7 +67,8 @@ pub(super) fn iterate_on<S: MetriplecticSystem>(
                 correct_step::<S>(batch, model, current, radius, &mut step, trust, options)?;
             let metric_refit = refit_metric::<S>(batch, current, &mut step, trust, options)?;
             let record = decide(model, current, step.report, |m| {
-                *m = Model::new(step.entropy, step.metric)?.with_certificate(step.certificate)?;
+                *m = Model::new(step.entropy, step.metric)?
+                    .with_certificate_if_it_holds(step.certificate);
                 Ok(())
             });
             let ratio = match (record.outcome, step.predicted) {

@@ -25,7 +25,11 @@ pub(crate) use display::polynomial;
 /// See [`Model::MAX_COEFFICIENT`].
 pub(crate) const MAX_COEFFICIENT: f64 = 1e15;
 
-use crate::error::{check_finite, check_len, Error, Result};
+/// How far a kept Gram certificate may be from proving its metric
+/// ([`Model::with_certificate`]), relative to its scale.
+pub(crate) const CERTIFICATE_TOLERANCE: f64 = 1e-6;
+
+use crate::error::{check_finite, check_len, invalid, Error, Result};
 use crate::system::{with_scratch, MetriplecticSystem};
 
 /// Entropy and metric coefficients of a system `S`.
@@ -138,13 +142,44 @@ impl<S: MetriplecticSystem> Model<S> {
     /// The model with `certificate` kept as the proof of its metric bounds.
     ///
     /// Errors if the certificate's Gram matrices do not fit the system's
-    /// certificate blocks. Whether they prove the bounds is not decided
-    /// here (the model's metric is certified independently when it is
-    /// built): see [`GramCertificate::check`].
+    /// certificate blocks, or do not prove this metric: a coefficient
+    /// identity off by more than 1e-6 or a Gram eigenvalue below −1e-6,
+    /// both relative to the certificate's scale ([`GramCertificate::check`];
+    /// the searches' certificates meet them by orders of magnitude, an
+    /// edited or stale one does not). The model's metric is certified
+    /// independently when it is built, so the certificate is the evidence
+    /// kept with it, not what makes it safe.
     pub fn with_certificate(mut self, certificate: GramCertificate) -> Result<Self> {
-        certificate.check::<S>(&self.metric)?;
+        let check = certificate.check::<S>(&self.metric)?;
+        if !check.holds(CERTIFICATE_TOLERANCE) {
+            return Err(invalid(
+                "Gram certificate",
+                format!(
+                    "it does not prove this metric: its coefficient identities are off by \
+                     {:.1e} and its smallest Gram eigenvalue is {:.1e}, relative to its scale \
+                     (accepted: within ±{CERTIFICATE_TOLERANCE:e}); in a model file, remove the \
+                     `certificate` field to load the model without it",
+                    check.identity_residual, check.smallest_eigenvalue
+                ),
+            ));
+        }
         self.certificate = Some(certificate);
         Ok(self)
+    }
+
+    /// The model with `certificate` kept if it proves the metric
+    /// ([`with_certificate`](Self::with_certificate)), else without one: a
+    /// search's certificate is as accurate as its solve.
+    pub(crate) fn with_certificate_if_it_holds(self, certificate: GramCertificate) -> Self {
+        let check = certificate.check::<S>(&self.metric);
+        if check.is_ok_and(|c| c.holds(CERTIFICATE_TOLERANCE)) {
+            Self {
+                certificate: Some(certificate),
+                ..self
+            }
+        } else {
+            self
+        }
     }
 
     /// The reference model declared in the system's `reference { … }` section.
