@@ -357,6 +357,15 @@ fn reserved_state_names_and_writer_checks() {
         err.to_string().contains("metriplectic-no-such-dir"),
         "{err}"
     );
+    // A directory opens and fails on reading: the error names it too
+    // (it said "<reader>: Is a directory").
+    let directory = std::env::temp_dir();
+    let err = read_trajectories::<Linear2d>(&directory).unwrap_err();
+    assert!(matches!(err, Error::Io { .. }), "{err}");
+    assert!(
+        err.to_string().contains(&*directory.to_string_lossy()),
+        "{err}"
+    );
 }
 
 fn synthesis_options(seed: u64) -> SynthesisOptions {

@@ -55,7 +55,14 @@ pub fn read_trajectories<S: MetriplecticSystem>(path: impl AsRef<Path>) -> Resul
         path: path.to_owned(),
         source,
     })?;
-    read_trajectories_from(file, S::STATE_NAMES)
+    // A directory opens and fails on reading: name it, not "<reader>".
+    read_trajectories_from(file, S::STATE_NAMES).map_err(|error| match error {
+        Error::Io { source, .. } => Error::Io {
+            path: path.to_owned(),
+            source,
+        },
+        other => other,
+    })
 }
 
 /// Reads trajectories with state variables `names` (in state order) from CSV
