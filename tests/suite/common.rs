@@ -48,6 +48,19 @@ pub fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The 2-D `states` with `model`'s exact ẋ.
+pub fn exact_dataset<S: MetriplecticSystem>(model: &Model<S>, states: &[[f64; 2]]) -> Dataset {
+    let derivatives: Vec<[f64; 2]> = states
+        .iter()
+        .map(|x| {
+            let mut f = [0.0; 2];
+            model.vector_field(x, &mut f).unwrap();
+            f
+        })
+        .collect();
+    Dataset::from_rows(2, states, &derivatives).unwrap()
+}
+
 /// Σ|f(x) − ẋ| / Σ|ẋ| of `model` on `data`.
 pub fn relative_error<S: MetriplecticSystem>(model: &Model<S>, data: &Dataset) -> f64 {
     let mut f = vec![0.0; S::DIM];

@@ -5,6 +5,8 @@
 //! there and nowhere else.
 
 use metriplectic::systems::{reference_samples, DragDuffing, DragRigidBody};
+
+use crate::common::exact_dataset;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
     metric_search, CertificateMode, IdentifyConfig, IdentifyWarning, Region, SearchOptions,
@@ -379,15 +381,7 @@ fn data_outside_an_on_region_certificate_are_a_warning() {
             [q, (7.0 * t).sin()]
         })
         .collect();
-    let derivatives: Vec<[f64; 2]> = states
-        .iter()
-        .map(|x| {
-            let mut f = [0.0; 2];
-            truth.vector_field(x, &mut f).unwrap();
-            f
-        })
-        .collect();
-    let data = Dataset::from_rows(2, &states, &derivatives).unwrap();
+    let data = exact_dataset(&truth, &states);
     let fit = identify::<OnTheBoxOnly>(&data, &IdentifyConfig::default()).unwrap();
     assert!(
         fit.warnings.contains(&IdentifyWarning::DataOutsideRegion {
@@ -405,7 +399,7 @@ fn data_outside_an_on_region_certificate_are_a_warning() {
     assert!(text.contains("10 of the 50 data states"), "{text}");
 
     // Inside the box only: no such warning.
-    let inside = Dataset::from_rows(2, &states[..40], &derivatives[..40]).unwrap();
+    let inside = exact_dataset(&truth, &states[..40]);
     let fit = identify::<OnTheBoxOnly>(&inside, &IdentifyConfig::default()).unwrap();
     assert!(
         !fit.warnings

@@ -76,17 +76,7 @@ fn eta_too_small_for_the_truth_gives_the_best_fit_within_the_bound() {
 #[test]
 fn rank_deficient_data_is_solved_or_recorded_never_a_panic() {
     let truth = Model::<Linear2d>::reference().unwrap();
-    let exact = |states: Vec<[f64; 2]>| {
-        let derivatives: Vec<[f64; 2]> = states
-            .iter()
-            .map(|x| {
-                let mut f = [0.0; 2];
-                truth.vector_field(x, &mut f).unwrap();
-                f
-            })
-            .collect();
-        Dataset::from_rows(2, &states, &derivatives).unwrap()
-    };
+    let exact = |states: Vec<[f64; 2]>| exact_dataset(&truth, &states);
     let cases = [
         ("one state repeated", exact(vec![[0.4, -0.7]; 20])),
         (

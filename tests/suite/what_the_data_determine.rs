@@ -17,6 +17,7 @@ use metriplectic_runtime::{
 use rand::Rng;
 
 use crate::common::{linear2d_data, rigid_body_data, scratch_path, Linear2d, RigidBody};
+use crate::degenerate_systems::OneState;
 
 fn gauge_options(trace: f64) -> IdentifiabilityOptions {
     IdentifiabilityOptions {
@@ -540,32 +541,18 @@ fn noise_does_not_make_an_exact_family_of_fits_look_determined() {
     assert_eq!(report.unknowns - report.rank, 2, "{report}");
 }
 
-metriplectic! {
-    /// A pure gradient flow on a line (Π = 0, found by a probe): the
-    /// field is K∇E alone, so (cK, E/c) fits as well as (K, E).
-    pub struct GradientLine;
-    state (x);
-    poisson = [[0]];
-    hamiltonian = 0.5 * x^2;
-    entropy degree 4;
-    metric degree 0;
-    reference {
-        entropy = -x^2 - 0.25 * x^4;
-        metric = [[0.5]];
-    }
-}
-
 /// A free scale is a warning of the run itself (a probe's gradient flow
-/// came back as K = 1 with E halved, and an empty warning list); a gauge
-/// fixes it and the warning goes; the paper's SO(3) has it too, the 2-D
-/// system (`stop_reasons::well_posed_data_have_no_warnings`) has not.
+/// on a line, Π = 0 as here, came back as K = 1 for K = ½ with E halved,
+/// and an empty warning list); a gauge fixes it and the warning goes; the
+/// paper's SO(3) has it too, the 2-D system
+/// (`stop_reasons::well_posed_data_have_no_warnings`) has not.
 #[test]
 fn a_free_scale_is_a_warning_until_a_gauge_fixes_it() {
-    let data = reference_samples::<GradientLine>(200, 61, |rng| vec![rng.random_range(-1.5..1.5)]);
+    let data = reference_samples::<OneState>(200, 61, |rng| vec![rng.random_range(-1.5..1.5)]);
     let scale_warning = |warnings: &[IdentifyWarning]| {
         warnings.contains(&IdentifyWarning::ScaleSymmetry { classical: false })
     };
-    let fit = identify::<GradientLine>(&data, &IdentifyConfig::default()).unwrap();
+    let fit = identify::<OneState>(&data, &IdentifyConfig::default()).unwrap();
     assert!(scale_warning(&fit.warnings), "{:?}", fit.warnings);
     let text = fit
         .warnings
@@ -580,16 +567,16 @@ fn a_free_scale_is_a_warning_until_a_gauge_fixes_it() {
 
     let gauged = IdentifyConfig {
         search: SearchOptions {
-            gauge: Some(Gauge::MetricTrace(0.5)),
+            gauge: Some(Gauge::MetricTrace(2.0)),
             ..SearchOptions::default()
         },
         ..IdentifyConfig::default()
     };
-    let fit = identify::<GradientLine>(&data, &gauged).unwrap();
+    let fit = identify::<OneState>(&data, &gauged).unwrap();
     assert!(!scale_warning(&fit.warnings), "{:?}", fit.warnings);
-    let truth = Model::<GradientLine>::reference().unwrap();
+    let truth = Model::<OneState>::reference().unwrap();
     assert!(
-        (fit.model.metric_coefficients()[0] - 0.5).abs() < 1e-8,
+        (fit.model.metric_coefficients()[0] - 2.0).abs() < 1e-8,
         "{}",
         fit.model
     );
