@@ -475,18 +475,7 @@ fn scaled_size(
 /// entropy regression at its metric, so the whole field's residual) over
 /// `top` times the size of its scaled coefficients; 0 without coefficients.
 fn misfit(entropy_rows: &Regression, psi: &[f64], coefficients: f64, top: f64) -> f64 {
-    let width = entropy_rows.width;
-    let residual = entropy_rows
-        .target
-        .iter()
-        .enumerate()
-        .map(|(i, &b)| {
-            let row = &entropy_rows.rows[i * width..(i + 1) * width];
-            let fitted: f64 = row.iter().zip(psi).map(|(a, c)| a * c).sum();
-            (fitted - b).powi(2)
-        })
-        .sum::<f64>()
-        .sqrt();
+    let residual = entropy_rows.l2_residual(psi);
     let effect = top * coefficients;
     if effect > 0.0 && residual.is_finite() {
         residual / effect

@@ -408,21 +408,12 @@ fn scale_is_free<S: MetriplecticSystem>(
             whole += f * f;
         }
     }
-    let width = entropy.width;
-    let residual = entropy
-        .target
-        .iter()
-        .zip(entropy.rows.chunks_exact(width.max(1)))
-        .map(|(b, row)| {
-            let fitted: f64 = row.iter().zip(psi).map(|(a, c)| a * c).sum();
-            (fitted - b).powi(2)
-        })
-        .sum::<f64>();
+    let residual = entropy.l2_residual(psi);
     // Relative sizes: the states' Π∇E against their field, the equations'
     // residual against their targets (weak-form equations are integrals).
     let measured = data.equations().targets.iter().map(|y| y * y).sum::<f64>();
     let misfit = if measured > 0.0 {
-        (residual / measured).sqrt()
+        residual / measured.sqrt()
     } else {
         0.0
     };

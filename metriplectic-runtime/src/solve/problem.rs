@@ -158,6 +158,16 @@ impl Regression {
         self.l1_residual_of_first(self.len(), c)
     }
 
+    /// ‖t − A c‖₂: the residual's Euclidean norm at coefficients `c`.
+    pub(crate) fn l2_residual(&self, c: &[f64]) -> f64 {
+        self.rows
+            .chunks_exact(self.width.max(1))
+            .zip(&self.target)
+            .map(|(row, t)| (t - row.iter().zip(c).map(|(a, x)| a * x).sum::<f64>()).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+
     /// [`l1_residual`](Self::l1_residual) over the first `rows` rows only.
     pub(crate) fn l1_residual_of_first(&self, rows: usize, c: &[f64]) -> f64 {
         self.rows
