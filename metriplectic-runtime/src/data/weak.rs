@@ -144,8 +144,9 @@ impl WeakDataset {
     /// The weak-form equations of `trajectories` (same state names, states
     /// only; derivatives, if present, are ignored).
     ///
-    /// Each trajectory of at least `form.window` samples gives a window
-    /// starting at samples 0, stride, 2·stride, … while it fits. With
+    /// Each trajectory gives a window starting at samples 0, stride,
+    /// 2·stride, … while it fits (samples after the last whole window are
+    /// not used). With
     /// φ(t) = ((t − a)(b − t))^p / ∫((t − a)(b − t))^p dt on the window
     /// [a, b] and the cardinal functions ℓⱼ of the local polynomials of
     /// degree `form.local_degree` through its samples, the equation is
@@ -153,7 +154,8 @@ impl WeakDataset {
     /// derivative estimate, both sides averaging the states' noise.
     ///
     /// Errors if there is no trajectory, the trajectories' state names differ
-    /// (in name or order), the form is invalid, or no trajectory is long enough for a window.
+    /// (in name or order), the form is invalid, or a trajectory is shorter
+    /// than the window (it would give no equation).
     pub fn from_trajectories(trajectories: &[Trajectory], form: &WeakForm) -> Result<Self> {
         form.validate()?;
         let first = trajectories
@@ -161,6 +163,34 @@ impl WeakDataset {
             .ok_or_else(|| invalid("trajectories", "at least one trajectory is required"))?;
         super::trajectory::check_same_names(trajectories)?;
         let dim = first.dim();
+        let longest = trajectories.iter().map(Trajectory::len).max().unwrap_or(0);
+        if longest < form.window {
+            return Err(invalid(
+                "weak-form window",
+                format!(
+                    "{} samples, but no trajectory is that long (the longest has {longest})",
+                    form.window
+                ),
+            ));
+        }
+        // A trajectory without a whole window would give no equation: its
+        // samples would be dropped without a word.
+        if let Some((index, short)) = trajectories
+            .iter()
+            .enumerate()
+            .find(|(_, trajectory)| trajectory.len() < form.window)
+        {
+            return Err(invalid(
+                "weak-form window",
+                format!(
+                    "{} samples, but {} has only {}, so none of its samples would be used; \
+                     shorten the window or leave that trajectory out",
+                    form.window,
+                    describe(index, short),
+                    short.len()
+                ),
+            ));
+        }
         let mut data = Self::empty(dim);
         data.names = Some(first.names().to_vec());
         for (index, trajectory) in trajectories.iter().enumerate() {
@@ -180,16 +210,6 @@ impl WeakDataset {
                 };
                 start = next;
             }
-        }
-        if data.targets.is_empty() {
-            return Err(invalid(
-                "weak-form window",
-                format!(
-                    "{} samples, but no trajectory is that long (the longest has {})",
-                    form.window,
-                    trajectories.iter().map(Trajectory::len).max().unwrap_or(0)
-                ),
-            ));
         }
         data.drop_unused_samples();
         Ok(data)
@@ -681,6 +701,27 @@ mod tests {
         let pq = Trajectory::new(vec!["p".into(), "q".into()], t, states, None).unwrap();
         let err = WeakDataset::from_trajectories(&[qp, pq], &WeakForm::default()).unwrap_err();
         assert!(err.to_string().contains("trajectory 1 has (p, q)"), "{err}");
+    }
+
+    #[test]
+    fn a_trajectory_shorter_than_the_window_is_named_not_dropped() {
+        let long: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        let short: Vec<f64> = (0..10).map(|k| 0.05 * k as f64).collect();
+        let err = WeakDataset::from_trajectories(
+            &[
+                circle(long.clone(), 1.0),
+                circle(short, 1.0),
+                circle(long, 1.0),
+            ],
+            &WeakForm::default(),
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string().contains(
+                "15 samples, but trajectory 1 has only 10, so none of its samples would be used"
+            ),
+            "{err}"
+        );
     }
 
     fn circle(t: Vec<f64>, radius: f64) -> Trajectory {
