@@ -130,8 +130,8 @@ pub use plot::{
 pub use simulate::{
     free_energy_diagnostics, integrate, simulate, simulate_many, synthesize, EnergyCheck,
     FreeEnergyReport, InitialStates, Integration, IntegrationStats, IntegratorOptions, Method,
-    Noise, Outliers, OutputTimes, SampleTimes, Simulation, SimulationOptions, SynthesisOptions,
-    SyntheticData,
+    Noise, Outliers, OutputTimes, OutsideRegion, SampleTimes, Simulation, SimulationOptions,
+    SynthesisOptions, SyntheticData,
 };
 #[cfg(feature = "clarabel")]
 pub use solve::L1Formulation;

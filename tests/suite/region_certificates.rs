@@ -9,8 +9,8 @@ use metriplectic::systems::{reference_samples, DragDuffing, DragRigidBody};
 use crate::common::exact_dataset;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    metric_search, CertificateMode, IdentifyConfig, IdentifyWarning, Region, SearchOptions,
-    SolveStatus, SolverBackend, SolverSettings,
+    metric_search, simulate, CertificateMode, IdentifyConfig, IdentifyWarning, OutsideRegion,
+    Region, SearchOptions, SimulationOptions, SolveStatus, SolverBackend, SolverSettings,
 };
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
@@ -408,4 +408,56 @@ fn data_outside_an_on_region_certificate_are_a_warning() {
         "{:?}",
         fit.warnings
     );
+}
+
+/// A simulation that leaves the region of `certificate on region` runs
+/// where nothing proves dE/dt ≥ 0: it says which outputs lie outside (a
+/// probe's simulation from outside the region came back with energy-check
+/// violations and no word about the region).
+#[test]
+fn a_simulation_outside_an_on_region_certificate_says_so() {
+    let exponent = |e: [u32; 2]| {
+        OnTheBoxOnly::ENTROPY_EXPONENTS
+            .iter()
+            .position(|x| x == &e)
+            .unwrap()
+    };
+    let mut entropy = vec![0.0; OnTheBoxOnly::entropy_coefficient_count()];
+    entropy[exponent([2, 0])] = -1.0;
+    entropy[exponent([0, 2])] = -1.0;
+    // E = −(q² + p²)/2: the flow spirals in, so a start in the box stays there.
+    let model = Model::<OnTheBoxOnly>::new(entropy, shrinking_metric::<OnTheBoxOnly>(1.0)).unwrap();
+    let options = SimulationOptions::default();
+    let inside = simulate(&model, &[0.3, 0.0], 0.0, 5.0, &options).unwrap();
+    assert_eq!(inside.outside_region, None);
+    // From p = 1.5 (outside the box) the spiral swings out to |q| > 0.5
+    // before it enters the box.
+    let outside = simulate(&model, &[0.0, 1.5], 0.0, 20.0, &options).unwrap();
+    let count = outside
+        .trajectory
+        .states()
+        .chunks_exact(2)
+        .filter(|x| x[0].abs() > 0.5 || x[1].abs() > 1.0)
+        .count();
+    assert!(count > 0 && count < outside.trajectory.len());
+    assert_eq!(
+        outside.outside_region,
+        Some(OutsideRegion {
+            outputs: count,
+            first: 0
+        })
+    );
+    // The default mode proves K ⪰ 0 everywhere: nothing to report.
+    let mut entropy = vec![0.0; Everywhere::entropy_coefficient_count()];
+    entropy[exponent([2, 0])] = -1.0;
+    entropy[exponent([0, 2])] = -1.0;
+    let metric = {
+        let mut theta = vec![0.0; Everywhere::metric_coefficient_count()];
+        theta[0] = 1.0;
+        theta[2 * Everywhere::METRIC_EXPONENTS.len()] = 1.0;
+        theta
+    };
+    let everywhere = Model::<Everywhere>::new(entropy, metric).unwrap();
+    let run = simulate(&everywhere, &[0.0, 1.5], 0.0, 5.0, &options).unwrap();
+    assert_eq!(run.outside_region, None);
 }

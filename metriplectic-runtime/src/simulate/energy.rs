@@ -11,7 +11,7 @@ use super::dopri::IntegratorOptions;
 use crate::data::Trajectory;
 use crate::error::{Error, Result};
 use crate::model::Model;
-use crate::system::MetriplecticSystem;
+use crate::system::{CertificateMode, MetriplecticSystem};
 
 /// How often E decreased along a set of trajectories.
 ///
@@ -130,6 +130,42 @@ impl EnergyCheck {
     pub fn is_non_decreasing(&self) -> bool {
         self.violations == 0
     }
+}
+
+/// Outputs of a simulation outside the region of the system's on-region
+/// metric certificate ([`CertificateMode::OnRegion`]): there K ⪰ 0, and so
+/// dE/dt ≥ 0, is not certified, and the free energy may fall without any
+/// error of the integrator.
+///
+/// ```
+/// use metriplectic_runtime::OutsideRegion;
+///
+/// let outside = OutsideRegion { outputs: 3, first: 7 };
+/// assert_eq!(outside.first, 7);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OutsideRegion {
+    /// How many outputs lie outside the region (at least 1).
+    pub outputs: usize,
+    /// The index of the first output outside it.
+    pub first: usize,
+}
+
+/// Which of `states` (row-major) lie outside the region of `S`'s on-region
+/// certificate; `None` if all lie inside, or if the system's certificate
+/// (if any) bounds K from below everywhere.
+pub(super) fn outside_region<S: MetriplecticSystem>(states: &[f64]) -> Option<OutsideRegion> {
+    let certificate = S::REGION_CERTIFICATE.filter(|c| c.mode == CertificateMode::OnRegion)?;
+    let mut outside = states
+        .chunks_exact(S::DIM)
+        .enumerate()
+        .filter(|(_, x)| !certificate.region.contains(x))
+        .map(|(k, _)| k);
+    let first = outside.next()?;
+    Some(OutsideRegion {
+        outputs: 1 + outside.count(),
+        first,
+    })
 }
 
 /// The tolerances τₖ of DOPRI5's outputs (see [`simulate`](crate::simulate)):

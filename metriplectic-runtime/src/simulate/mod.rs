@@ -11,12 +11,12 @@ mod energy;
 mod synthesize;
 
 pub use dopri::{integrate, Integration, IntegrationStats, IntegratorOptions, OutputTimes};
-pub use energy::{free_energy_diagnostics, EnergyCheck, FreeEnergyReport};
+pub use energy::{free_energy_diagnostics, EnergyCheck, FreeEnergyReport, OutsideRegion};
 pub use synthesize::{
     synthesize, InitialStates, Noise, Outliers, SampleTimes, SynthesisOptions, SyntheticData,
 };
 
-use energy::{check_energy, integrator_tolerances};
+use energy::{check_energy, integrator_tolerances, outside_region};
 
 use crate::data::Trajectory;
 use crate::error::{invalid, Result};
@@ -143,6 +143,12 @@ pub struct Simulation {
     pub free_energy: Vec<f64>,
     /// Monotonicity of E along the trajectory.
     pub energy: EnergyCheck,
+    /// The outputs outside the region of the system's metric certificate,
+    /// when it holds only there ([`CertificateMode::OnRegion`](crate::CertificateMode::OnRegion)):
+    /// outside it the free energy is not certified to be non-decreasing.
+    /// `None` (always, for systems without such a certificate) when every
+    /// output lies in the region.
+    pub outside_region: Option<OutsideRegion>,
     /// Integrator statistics.
     pub stats: IntegrationStats,
 }
@@ -240,6 +246,11 @@ pub fn simulate_many<S: MetriplecticSystem>(
 ///
 /// with ‖∇̄H‖ + ‖∇̄S‖ in place of ‖∇̄E‖ for a classical system. A violation
 /// here means the guarantee failed, not that the step was too long.
+///
+/// Both guarantees need K ⪰ 0 along the way. A system whose metric
+/// certificate holds only on its region ([`CertificateMode::OnRegion`](crate::CertificateMode::OnRegion))
+/// has it only there: [`Simulation::outside_region`] counts the outputs
+/// outside, where a decrease of E is the model's, not the integrator's.
 pub fn simulate<S: MetriplecticSystem>(
     model: &Model<S>,
     x0: &[f64],
@@ -311,12 +322,14 @@ pub fn simulate<S: MetriplecticSystem>(
         None => dopri_tolerances(model, &solution.states, &options.integrator, factor),
     };
     let energy = check_energy(&free_energy, &tolerances);
+    let outside_region = outside_region::<S>(&solution.states);
     let names = S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect();
     let trajectory = Trajectory::new(names, solution.times, solution.states, Some(derivatives))?;
     Ok(Simulation {
         trajectory,
         free_energy,
         energy,
+        outside_region,
         stats: solution.stats,
     })
 }
