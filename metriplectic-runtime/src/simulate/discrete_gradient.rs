@@ -71,7 +71,10 @@
 //!
 //! It stops once the update stops decreasing and is at most 64 ulps of
 //! the state, 64ε·max(‖x‖, ‖x′‖) (ε the machine epsilon), plus the rounding
-//! of Φ itself (below), and accepts the iterate with the smallest update;
+//! of Φ itself (below), and accepts the iterate with the smallest update
+//! if its residual ‖Φ(x′) − x′‖ is within that bound too, or a Jacobian
+//! taken at that iterate confirms the update (a Jacobian from an earlier
+//! iterate can make the update small where the residual is not);
 //! at most 200 evaluations of Φ and 10 Jacobians per step. An iteration
 //! that diverges, or stalls above that bound, is a
 //! [`SimulationError::StepNotConverged`] naming the step: a smaller step
@@ -465,6 +468,8 @@ struct Newton {
     /// LU factors of I − h G′ (nalgebra's, partial pivoting), for `step` = h.
     lu: Option<LU<f64, Dyn, Dyn>>,
     step: f64,
+    /// The iterate G′ was taken at.
+    at: Vec<f64>,
     base: Vec<f64>,
     shifted: Vec<f64>,
 }
@@ -475,6 +480,7 @@ impl Newton {
             derivative: vec![0.0; n * n],
             lu: None,
             step: f64::NAN,
+            at: vec![f64::NAN; n],
             base: vec![0.0; n],
             shifted: vec![0.0; n],
         }
@@ -569,7 +575,9 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         // fraction of the step (in `self.update`) taken from it.
         let mut base_residual = f64::INFINITY;
         let mut fraction = 1.0;
+        let mut iterations = 0;
         for iteration in 1..=MAX_ITERATIONS {
+            iterations = iteration;
             let mut solved = self.map(x, at_x, h, y);
             stats.evaluations = stats.evaluations.saturating_add(1);
             for ((r, image), yj) in self.residual.iter_mut().zip(&self.image).zip(&*y) {
@@ -612,8 +620,28 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             let tolerance = tolerance(y, solved.noise);
             // Converged: the update is at rounding level and no longer falls.
             if update <= tolerance && (update == 0.0 || update >= previous) {
-                converged = true;
-                break;
+                if self.verified(y, solved.residual, tolerance) {
+                    converged = true;
+                    break;
+                }
+                // A small update from a large residual: the Jacobian, taken
+                // at another iterate, may be far larger than Φ′ here (a probe
+                // accepted a residual of 6e16 this way, and E fell by 1e20).
+                // Only a Jacobian at this iterate can say it is a solution.
+                if jacobians >= self.max_jacobians {
+                    break;
+                }
+                self.jacobian(x, at_x, h, y, stats);
+                jacobians += 1;
+                self.direction();
+                update = norm(&self.update);
+                if update <= tolerance {
+                    self.best.copy_from_slice(y);
+                    best = Some((update, solved));
+                    converged = true;
+                    break;
+                }
+                previous = f64::INFINITY;
             }
             // Too slow (or growing): a Jacobian at this iterate.
             if update > tolerance && update > SLOW * previous && jacobians < self.max_jacobians {
@@ -635,12 +663,14 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         match best {
             // After the cap, the best iterate may still be at rounding level.
             Some((smallest, solved))
-                if converged || smallest <= tolerance(&self.best, solved.noise) =>
+                if converged
+                    || (smallest <= tolerance(&self.best, solved.noise)
+                        && solved.residual <= tolerance(&self.best, solved.noise)) =>
             {
                 y.copy_from_slice(&self.best);
                 Ok(solved)
             }
-            _ => Err((update, MAX_ITERATIONS)),
+            _ => Err((update, iterations)),
         }
     }
 
@@ -655,6 +685,19 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         S::entropy_gradient(&self.midpoint, &self.absolute_psi, &mut self.gradient_s);
         let bound = self.terms * f64::EPSILON;
         self.gradient_rounding = (bound * norm(&self.gradient), bound * norm(&self.gradient_s));
+    }
+
+    /// Whether an update at rounding level from the iterate `y` with
+    /// residual ‖Φ(y) − y‖ = `residual` shows that `y` solves the equation:
+    /// the residual itself is at rounding level, or the Jacobian the update
+    /// used was taken at `y` (a stiff Φ′ can keep the residual of the
+    /// nearest floating-point state above the rounding of Φ).
+    fn verified(&self, y: &[f64], residual: f64, tolerance: f64) -> bool {
+        residual <= tolerance
+            || self
+                .newton
+                .as_ref()
+                .is_some_and(|newton| newton.lu.is_some() && newton.at == y)
     }
 
     /// The update J⁻¹(Φ(y) − y) from `self.residual` into `self.update`.
@@ -680,6 +723,7 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         let n = S::DIM;
         let mut newton = self.newton.take().unwrap_or_else(|| Newton::new(n));
         newton.base.copy_from_slice(&self.image);
+        newton.at.copy_from_slice(y);
         newton.shifted.copy_from_slice(y);
         let scale = norm(x).max(norm(y));
         for (j, &original) in y.iter().enumerate() {
