@@ -288,6 +288,53 @@ fn checkpoint_settings_are_validated_before_any_work() {
     }
 }
 
+/// A checkpoint path that names the user's data or model is refused, not
+/// overwritten (a probe's checkpoint replaced its CSV); a checkpoint of an
+/// earlier run at the path is the run's own kind of file and is replaced.
+#[test]
+fn a_checkpoint_never_overwrites_a_file_that_is_not_one() {
+    let dir = scratch("not_a_checkpoint");
+    let data = linear2d_data(10, 9);
+    let with = |path: &Path| IdentifyConfig {
+        checkpoint: Some(CheckpointConfig {
+            path: path.to_owned(),
+            every: 1,
+        }),
+        max_iterations: 2,
+        ..alternation()
+    };
+    let csv = dir.join("runs.csv");
+    let contents = "trajectory,t,q,p\n0,0,1,2\n";
+    std::fs::write(&csv, contents).unwrap();
+    let err = identify::<Linear2d>(&data, &with(&csv)).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("exists and is not a checkpoint (it starts with \"trajectory,t,q,p"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), contents);
+    let model = dir.join("model.json");
+    Model::<Linear2d>::reference()
+        .unwrap()
+        .save(&model, WriteMode::CreateNew)
+        .unwrap();
+    let saved = std::fs::read(&model).unwrap();
+    assert!(identify::<Linear2d>(&data, &with(&model)).is_err());
+    assert_eq!(std::fs::read(&model).unwrap(), saved);
+    assert!(identify::<Linear2d>(&data, &with(&dir)).is_err());
+
+    let checkpoint = dir.join("checkpoint.json");
+    identify::<Linear2d>(&data, &with(&checkpoint)).unwrap();
+    let first = std::fs::read(&checkpoint).unwrap();
+    let again = IdentifyConfig {
+        max_iterations: 3,
+        ..with(&checkpoint)
+    };
+    identify::<Linear2d>(&data, &again).unwrap();
+    assert_ne!(std::fs::read(&checkpoint).unwrap(), first);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_converged_checkpoint_resumes_as_converged_without_iterating() {
     let dir = scratch("converged");

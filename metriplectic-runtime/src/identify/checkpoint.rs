@@ -33,7 +33,9 @@ use crate::system::MetriplecticSystem;
 /// Where and how often [`identify`](crate::identify) saves checkpoints.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CheckpointConfig {
-    /// The checkpoint file (replaced at every save). Its directory must exist.
+    /// The checkpoint file (replaced at every save). Its directory must
+    /// exist, and a file already there must be a checkpoint: anything else
+    /// is refused rather than overwritten.
     pub path: PathBuf,
     /// Save after every `every` iterations (and always when the run stops).
     pub every: usize,
@@ -41,7 +43,9 @@ pub struct CheckpointConfig {
 
 impl CheckpointConfig {
     /// Checks that `every` is at least 1 and that `path` names a file in an
-    /// existing directory, so a typo fails before hours of computation.
+    /// existing directory, so a typo fails before hours of computation, and
+    /// that a file already at `path` is a checkpoint (a run replaces its
+    /// own kind of file, never the user's data or a model).
     pub fn validate(&self) -> Result<()> {
         let invalid = |reason: String| Error::InvalidArgument {
             what: "checkpoint".to_owned(),
@@ -67,7 +71,41 @@ impl CheckpointConfig {
                 self.path.display()
             )));
         }
+        if self.path.is_dir() {
+            return Err(invalid(format!("{} is a directory", self.path.display())));
+        }
+        if std::fs::symlink_metadata(&self.path).is_ok() && !is_checkpoint(&self.path) {
+            return Err(invalid(format!(
+                "{} exists and is not a checkpoint (it starts with {:?}); \
+                 choose another path or move that file",
+                self.path.display(),
+                file_start(&self.path)
+            )));
+        }
         Ok(())
+    }
+}
+
+/// Whether the file at `path` is a JSON object whose `format` is a
+/// checkpoint's (whatever its version, and in any field order).
+fn is_checkpoint(path: &Path) -> bool {
+    #[derive(Deserialize)]
+    struct Tagged {
+        format: String,
+    }
+    std::fs::File::open(path)
+        .ok()
+        .and_then(|file| serde_json::from_reader(std::io::BufReader::new(file)).ok())
+        .is_some_and(|tagged: Tagged| tagged.format == FORMAT)
+}
+
+/// The first 40 bytes of the file at `path`, for an error message.
+fn file_start(path: &Path) -> String {
+    use std::io::Read;
+    let mut start = Vec::new();
+    match std::fs::File::open(path).and_then(|file| file.take(40).read_to_end(&mut start)) {
+        Ok(_) => String::from_utf8_lossy(&start).into_owned(),
+        Err(e) => format!("<unreadable: {e}>"),
     }
 }
 
