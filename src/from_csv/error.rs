@@ -14,6 +14,10 @@ pub enum FromCsvError {
     /// A file exists where an output goes and `--overwrite` was not given.
     #[error("{0} appeared while the run was going; refusing to replace it without --overwrite")]
     OutputExists(PathBuf),
+    /// The input CSV has the name of an output in the output directory, and
+    /// `--overwrite` would replace it.
+    #[error("{0} is the input and also a file this run writes into --out; with --overwrite it would be replaced: choose another --out or move the input")]
+    InputIsAnOutput(PathBuf),
     /// The CSV's columns are not the chosen system's.
     #[error("{path}: the columns do not match the state ({state}) of system `{system}`: {detail}\nsystems this example knows: {known}")]
     StateNames {

@@ -63,7 +63,7 @@ use crate::systems::{Duffing, Linear2d, RigidBody};
 use columns::infer_system;
 use error::io_error;
 use options::check_options;
-use output::{check_output_dir, write_output};
+use output::{check_input_is_not_an_output, check_output_dir, write_output};
 use summary::report;
 use validation::{trajectory_label, validate};
 
@@ -87,6 +87,7 @@ pub fn run_until(options: &Options, stop: &AtomicBool) -> Result<Summary, FromCs
     let started = Instant::now();
     check_options(options)?;
     check_output_dir(&options.out, options.overwrite)?;
+    check_input_is_not_an_output(&options.data, &options.out, options.overwrite)?;
     let system = match options.system {
         Some(system) => system,
         None => infer_system(&options.data)?,
@@ -196,7 +197,9 @@ impl Context<'_> {
             split_by_trajectory(&trajectories, options.validation_fraction, options.seed)?;
         let train_equations = Equations::build(&train, &method).map_err(|source| {
             let hint = match method {
-                DataMethod::Weak(_) => "; shorter trajectories need --derivatives METHOD",
+                DataMethod::Weak(_) => {
+                    " (the window is --window N); shorter trajectories need --derivatives METHOD"
+                }
                 _ => "",
             };
             FromCsvError::Option(format!(
@@ -207,7 +210,20 @@ impl Context<'_> {
         })?;
         // Validation trajectories too short for a weak-form window still
         // count in the simulated error; only their equation score is missing.
-        let validation_equations = Equations::build(&validation, &method).ok();
+        let window = match method {
+            DataMethod::Weak(form) => form.window,
+            _ => 0,
+        };
+        let long_enough: Vec<Trajectory> = validation
+            .iter()
+            .filter(|t| t.len() >= window)
+            .cloned()
+            .collect();
+        let validation_equations = if long_enough.is_empty() {
+            None
+        } else {
+            Equations::build(&long_enough, &method).ok()
+        };
 
         fs::create_dir_all(&options.out).map_err(io_error(&options.out))?;
         let identify_started = Instant::now();
@@ -235,6 +251,13 @@ impl Context<'_> {
             warnings.push(format!(
                 "no validation trajectory is long enough for the {}; validation_equation_relative_error is null",
                 method.describe()
+            ));
+        } else if long_enough.len() < validation.len() {
+            warnings.push(format!(
+                "{} of {} validation trajectories are shorter than the weak-form window ({window} samples): \
+                 they count in validation_relative_error, not in validation_equation_relative_error",
+                validation.len() - long_enough.len(),
+                validation.len()
             ));
         }
         if !checked.not_simulated.is_empty() {
@@ -333,8 +356,12 @@ impl Context<'_> {
     fn data_method(&self, trajectories: &[Trajectory]) -> Result<DataMethod, FromCsvError> {
         let has_derivatives = trajectories.iter().all(|t| t.derivatives().is_some());
         let options = self.options;
+        let weak = WeakForm {
+            window: options.window.unwrap_or(WeakForm::default().window),
+            ..WeakForm::default()
+        };
         Ok(match options.derivatives {
-            _ if options.weak => DataMethod::Weak(WeakForm::default()),
+            _ if options.weak || options.window.is_some() => DataMethod::Weak(weak),
             Some(DerivativeChoice::Exact) if !has_derivatives => {
                 return Err(FromCsvError::Option(format!(
                     "--derivatives exact: {} has no derivative columns ({}); estimate them (e.g. --derivatives sg) or use --weak",
@@ -350,7 +377,7 @@ impl Context<'_> {
             Some(DerivativeChoice::Exact) => DataMethod::ExactDerivatives,
             Some(DerivativeChoice::Estimate(method)) => DataMethod::EstimatedDerivatives(method),
             None if has_derivatives => DataMethod::ExactDerivatives,
-            None => DataMethod::Weak(WeakForm::default()),
+            None => DataMethod::Weak(weak),
         })
     }
 

@@ -34,11 +34,15 @@ pub struct Options {
     #[arg(long, value_enum, value_name = "NAME")]
     pub system: Option<SystemName>,
     /// Identify from the weak (integral) form of the states alone: no
-    /// derivative estimate; each equation averages a window of 15
-    /// consecutive samples, so trajectories need at least 15 samples. The
-    /// default when the CSV has no derivative columns.
+    /// derivative estimate; each equation averages a window of consecutive
+    /// samples (--window), so every training trajectory needs at least that
+    /// many samples. The default when the CSV has no derivative columns.
     #[arg(long, conflicts_with = "derivatives")]
     pub weak: bool,
+    /// Samples per weak-form window (at least 3; implies --weak)
+    /// [default: 15].
+    #[arg(long, value_name = "N", conflicts_with = "derivatives")]
+    pub window: Option<usize>,
     /// Identify from derivatives: exact (the CSV's derivative columns dq, dp, ...; the
     /// default when it has them), fd2, fd4 or fd6 (finite differences of that
     /// order, for clean data), sg (Savitzky-Golay, window 7, degree 3),
@@ -76,6 +80,7 @@ impl Options {
             out: out.into(),
             system: None,
             weak: false,
+            window: None,
             derivatives: None,
             validation_fraction: 0.2,
             seed: 1,

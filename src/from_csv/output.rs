@@ -32,6 +32,35 @@ pub(super) fn check_output_dir(out: &Path, overwrite: bool) -> Result<(), FromCs
     }
 }
 
+/// Whether the pipeline may write a file of this name into the output
+/// directory: its fixed files, and figures (`.png`).
+fn is_output_name(name: &std::ffi::OsStr) -> bool {
+    ["model.json", "equations.txt", "history.csv", "summary.json"]
+        .iter()
+        .any(|fixed| name == *fixed)
+        || Path::new(name).extension().is_some_and(|e| e == "png")
+}
+
+/// Refuses `--overwrite` when the input CSV is in the output directory under
+/// a name the run writes: it would be replaced by an output.
+pub(super) fn check_input_is_not_an_output(
+    data: &Path,
+    out: &Path,
+    overwrite: bool,
+) -> Result<(), FromCsvError> {
+    let (Ok(data), Ok(out)) = (fs::canonicalize(data), fs::canonicalize(out)) else {
+        // No output directory yet, or no input (the reader says so).
+        return Ok(());
+    };
+    let inside = data.parent() == Some(out.as_path());
+    match data.file_name() {
+        Some(name) if overwrite && inside && is_output_name(name) => {
+            Err(FromCsvError::InputIsAnOutput(data))
+        }
+        _ => Ok(()),
+    }
+}
+
 impl Context<'_> {
     /// `validation_<k>.png` (or one per pair of state variables),
     /// `validation_overlay.png` (the same trajectories over time),

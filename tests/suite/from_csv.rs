@@ -293,10 +293,34 @@ fn bad_input_and_options_give_errors_that_say_what_is_wrong() {
     for part in [
         "short.csv",
         "no trajectory is that long (the longest has 10)",
+        "--window N",
         "--derivatives",
     ] {
         assert!(err.contains(part), "`{part}` not in: {err}");
     }
+    // …which a shorter window follows.
+    let options = Options::try_parse_from([
+        "from_csv",
+        "--data",
+        csv.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--window",
+        "5",
+        "--max-iterations",
+        "2",
+        "--plot-trajectories",
+        "0",
+        "--quiet",
+    ])
+    .unwrap();
+    let summary = run(&options).unwrap();
+    assert!(
+        summary.data_method.starts_with("weak form (window 5,"),
+        "{}",
+        summary.data_method
+    );
+    std::fs::remove_dir_all(&out).unwrap();
 
     let csv = scratch("states_only.csv");
     small_csv::<Linear2d>(&csv);
@@ -372,6 +396,20 @@ fn a_non_empty_output_directory_is_refused_and_its_files_kept() {
         std::fs::read_to_string(out.join("notes.txt")).unwrap(),
         "precious"
     );
+
+    // …but not over its own input: a probe's `--data fit/history.csv
+    // --out fit --overwrite` replaced the data by the iteration history.
+    let input = out.join("history.csv");
+    std::fs::copy(&csv, &input).unwrap();
+    let data = std::fs::read(&input).unwrap();
+    let err = run(&Options {
+        data: input.clone(),
+        ..options
+    })
+    .unwrap_err();
+    assert!(matches!(err, FromCsvError::InputIsAnOutput(_)), "{err:?}");
+    assert!(err.to_string().contains("choose another --out"), "{err}");
+    assert_eq!(std::fs::read(&input).unwrap(), data);
 }
 
 #[test]
