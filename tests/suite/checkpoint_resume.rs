@@ -335,6 +335,32 @@ fn a_checkpoint_never_overwrites_a_file_that_is_not_one() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A checkpoint records H and Π: resuming into a system whose known parts
+/// changed under the same name and bases is refused, naming the change.
+#[test]
+fn a_checkpoint_of_another_hamiltonian_does_not_resume() {
+    let dir = scratch("another_hamiltonian");
+    let data = linear2d_data(40, 14);
+    let path = dir.join("checkpoint.json");
+    let config = IdentifyConfig {
+        max_iterations: 1,
+        ..config(Some(&path))
+    };
+    identify::<Linear2d>(&data, &config).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let h = value["known_parts"]["hamiltonian"][0].as_f64().unwrap();
+    value["known_parts"]["hamiltonian"][0] = serde_json::json!(2.0 * h + 1.0);
+    std::fs::write(&path, value.to_string()).unwrap();
+    let err = identify_resume::<Linear2d>(&path, &data, &config).unwrap_err();
+    assert!(
+        matches!(err, Error::CheckpointMismatch { .. })
+            && err.to_string().contains("with another Hamiltonian: H = "),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_converged_checkpoint_resumes_as_converged_without_iterating() {
     let dir = scratch("converged");

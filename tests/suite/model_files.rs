@@ -137,3 +137,76 @@ fn absurd_coefficients_are_refused_by_name() {
         "{message}"
     );
 }
+
+mod first {
+    metriplectic_runtime::metriplectic! {
+        /// An oscillator as first declared.
+        pub struct Osc;
+        state (x, v);
+        poisson = [[0, -1], [1, 0]];
+        hamiltonian = 0.5 * v^2 + 0.5 * x^2;
+        entropy degree 2;
+        metric degree 0;
+    }
+}
+
+mod stiffer {
+    metriplectic_runtime::metriplectic! {
+        /// The same name, state and bases with a stiffer spring.
+        pub struct Osc;
+        state (x, v);
+        poisson = [[0, -1], [1, 0]];
+        hamiltonian = 0.5 * v^2 + 5 * x^2;
+        entropy degree 2;
+        metric degree 0;
+    }
+}
+
+mod reversed {
+    metriplectic_runtime::metriplectic! {
+        /// The same with the Poisson tensor's sign flipped.
+        pub struct Osc;
+        state (x, v);
+        poisson = [[0, 1], [-1, 0]];
+        hamiltonian = 0.5 * v^2 + 0.5 * x^2;
+        entropy degree 2;
+        metric degree 0;
+    }
+}
+
+/// A model means nothing for another H or Π, but a file named its system
+/// only by name, state and bases, which an edited constant leaves as they
+/// were: a probe's model loaded into an `Osc` with another H and Π, and
+/// its free energy and field changed without a word.
+#[test]
+fn a_model_does_not_load_into_a_system_whose_hamiltonian_or_poisson_changed() {
+    let entropy = vec![-0.5; first::Osc::entropy_coefficient_count()];
+    let model = Model::<first::Osc>::new(entropy, vec![1.0, 0.0, 1.0]).unwrap();
+    let json = model.to_json().unwrap();
+    assert_eq!(Model::<first::Osc>::from_json(&json).unwrap(), model);
+
+    let error = Model::<stiffer::Osc>::from_json(&json).unwrap_err();
+    assert!(matches!(error, Error::WrongSystem { .. }), "{error}");
+    assert!(
+        error.to_string().contains("with another Hamiltonian: H = "),
+        "{error}"
+    );
+    let error = Model::<reversed::Osc>::from_json(&json).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("with another Poisson tensor: Π[0][1] = -1e0 in the file, 1e0 in the system"),
+        "{error}"
+    );
+
+    // A file written before H and Π were recorded still loads.
+    let mut value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    value.as_object_mut().unwrap().remove("known_parts");
+    let older = serde_json::to_string(&value).unwrap();
+    assert_eq!(
+        Model::<stiffer::Osc>::from_json(&older)
+            .unwrap()
+            .entropy_coefficients(),
+        model.entropy_coefficients()
+    );
+}

@@ -27,6 +27,7 @@ use super::state::RunState;
 use crate::data::IdentificationData;
 use crate::error::{Error, Result};
 use crate::io::{read_capped, write_file, WriteMode};
+use crate::model::known_parts::KnownParts;
 use crate::model::{GramCertificate, Model};
 use crate::system::MetriplecticSystem;
 
@@ -182,6 +183,10 @@ struct CheckpointFile {
     certificate: Option<GramCertificate>,
     #[serde(default)]
     best_certificate: Option<GramCertificate>,
+    /// H and Π of the system at a few states: a resumed run must have the
+    /// same known parts (absent from earlier checkpoints: not checked).
+    #[serde(default)]
+    known_parts: Option<KnownParts>,
 }
 
 /// The configuration as the fingerprint compares it: the iteration cap may
@@ -236,6 +241,7 @@ pub(crate) fn save<S: MetriplecticSystem>(
             .best
             .as_ref()
             .and_then(|(model, _)| model.certificate().cloned()),
+        known_parts: Some(KnownParts::of::<S>()),
     };
     let json = serde_json::to_string(&file).map_err(|source| Error::Json {
         context: Some(path.display().to_string()),
@@ -283,6 +289,16 @@ pub(crate) fn load<S: MetriplecticSystem>(
             expected.dim,
             expected.entropy_coefficients,
             expected.metric_coefficients
+        )));
+    }
+    if let Some(difference) = file
+        .known_parts
+        .as_ref()
+        .and_then(KnownParts::difference::<S>)
+    {
+        return Err(mismatch(format!(
+            "it is of system `{}` with {difference}",
+            file.fingerprint.system
         )));
     }
     if file.fingerprint != expected {

@@ -1,14 +1,16 @@
 //! Saving and loading a [`Model`] as JSON.
 //!
 //! The file records which system and bases the coefficients belong to (name,
-//! state names, degrees, exponent tables), so loading into another system —
-//! or into the same name with different bases — fails with
+//! state names, degrees, exponent tables) and the system's H and Π at a few
+//! states, so loading into another system — or into the same name with
+//! different bases, or with an edited H or Π — fails with
 //! [`Error::WrongSystem`] instead of silently misreading the coefficients.
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::known_parts::KnownParts;
 use super::{GramCertificate, Model};
 use crate::error::{Error, Result};
 use crate::io::{read_capped, write_file, WriteMode};
@@ -43,6 +45,11 @@ struct ModelFile {
     /// classical form existed are generalized.
     #[serde(default)]
     formalism: Formalism,
+    /// H and Π at a few states, so that a model is not loaded into a system
+    /// whose known parts changed under the same name and bases; files
+    /// written before it was recorded load without the check.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    known_parts: Option<KnownParts>,
     entropy: Vec<f64>,
     metric: Vec<f64>,
     /// The Gram matrices proving the metric's bounds, when known.
@@ -131,6 +138,7 @@ impl ModelFile {
             certificate_mode: S::REGION_CERTIFICATE.map(|c| c.mode),
             free_energy_certified: free_energy_certified::<S>(),
             formalism: Formalism::of::<S>(),
+            known_parts: None,
             entropy: Vec::new(),
             metric: Vec::new(),
             certificate: None,
@@ -178,6 +186,7 @@ impl<S: MetriplecticSystem> Model<S> {
             entropy: self.entropy_coefficients().to_vec(),
             metric: self.metric_coefficients().to_vec(),
             certificate: self.certificate().cloned(),
+            known_parts: Some(KnownParts::of::<S>()),
             ..ModelFile::header_of::<S>()
         };
         serde_json::to_string_pretty(&file).map_err(|source| Error::Json {
@@ -223,6 +232,7 @@ impl<S: MetriplecticSystem> Model<S> {
             entropy: Vec::new(),
             metric: Vec::new(),
             certificate: None,
+            known_parts: None,
             ..file.clone()
         };
         if found_header != expected {
@@ -249,6 +259,16 @@ impl<S: MetriplecticSystem> Model<S> {
             return Err(Error::WrongSystem {
                 expected: expected.describe(),
                 found,
+            });
+        }
+        if let Some(difference) = file
+            .known_parts
+            .as_ref()
+            .and_then(KnownParts::difference::<S>)
+        {
+            return Err(Error::WrongSystem {
+                expected: expected.describe(),
+                found: format!("{} with {difference}", file.describe()),
             });
         }
         let model = Self::new(file.entropy, file.metric)?;

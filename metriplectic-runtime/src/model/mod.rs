@@ -12,6 +12,7 @@ pub(crate) mod classical;
 mod display;
 mod file;
 mod gram;
+pub(crate) mod known_parts;
 mod score;
 
 pub use gram::{CertificateCheck, GramCertificate, GramMatrix};
