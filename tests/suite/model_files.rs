@@ -186,6 +186,7 @@ fn a_model_does_not_load_into_a_system_whose_hamiltonian_or_poisson_changed() {
     assert_eq!(Model::<first::Osc>::from_json(&json).unwrap(), model);
 
     let error = Model::<stiffer::Osc>::from_json(&json).unwrap_err();
+    println!("{error}");
     assert!(matches!(error, Error::WrongSystem { .. }), "{error}");
     assert!(
         error.to_string().contains("with another Hamiltonian: H = "),
