@@ -64,7 +64,9 @@ pub(crate) fn read_capped(path: &Path, limit: u64, what: &str) -> Result<String>
 /// Writes `bytes` to `path` so that nothing is ever half-written: a reader
 /// (or a crash, or a full disk) sees either the previous file or the
 /// complete new one. [`WriteMode::CreateNew`] refuses an existing file with
-/// [`Error::FileExists`]; [`WriteMode::Overwrite`] replaces it. The
+/// [`Error::FileExists`]; [`WriteMode::Overwrite`] replaces it, keeping its
+/// permissions, and replaces the file a symbolic link points to rather than
+/// the link; a read-only file is refused ([`Error::Io`], permission denied). The
 /// directory must exist; a `path` that is a directory is
 /// [`Error::InvalidArgument`], any other failure [`Error::Io`].
 ///
@@ -101,10 +103,36 @@ pub fn write_file(path: &Path, bytes: &[u8], mode: WriteMode) -> Result<()> {
             ),
         ));
     }
+    // Overwriting a symbolic link replaces the file it points to, not the
+    // link; a read-only file is not replaced, and a replaced file keeps its
+    // permissions.
+    let resolved;
+    let (path, existing) = match (mode, std::fs::symlink_metadata(path)) {
+        (WriteMode::Overwrite, Ok(meta)) => {
+            let path = if meta.file_type().is_symlink() {
+                resolved = std::fs::canonicalize(path).map_err(io(path))?;
+                resolved.as_path()
+            } else {
+                path
+            };
+            let meta = std::fs::metadata(path).map_err(io(path))?;
+            if meta.permissions().readonly() {
+                return Err(io(path)(std::io::Error::new(
+                    std::io::ErrorKind::PermissionDenied,
+                    "the file is read-only; refusing to replace it (make it writable to overwrite it)",
+                )));
+            }
+            (path, Some(meta.permissions()))
+        }
+        _ => (path, None),
+    };
     let temporary = temporary_beside(path)?;
     let written = (|| {
         let mut file = File::create(&temporary)?;
         file.write_all(bytes)?;
+        if let Some(permissions) = existing {
+            file.set_permissions(permissions)?;
+        }
         file.sync_all()
     })();
     if let Err(source) = written {
@@ -205,6 +233,39 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("state.json")]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A probe's overwrite made a read-only file writable (0444 → 0644) and
+    /// replaced a symbolic link by a file, leaving the link's target as it was.
+    #[cfg(unix)]
+    #[test]
+    fn overwriting_keeps_permissions_follows_links_and_spares_read_only_files() {
+        use std::os::unix::fs::{symlink, PermissionsExt};
+        let dir = scratch("permissions");
+        let path = dir.join("model.json");
+        let _ = std::fs::remove_file(&path);
+        write_file(&path, b"first", WriteMode::CreateNew).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600)).unwrap();
+        write_file(&path, b"second", WriteMode::Overwrite).unwrap();
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+
+        let link = dir.join("link.json");
+        let _ = std::fs::remove_file(&link);
+        symlink(&path, &link).unwrap();
+        write_file(&link, b"through the link", WriteMode::Overwrite).unwrap();
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read(&path).unwrap(), b"through the link");
+
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
+        let error = write_file(&path, b"third", WriteMode::Overwrite).unwrap_err();
+        assert!(error.to_string().contains("read-only"), "{error}");
+        assert_eq!(std::fs::read(&path).unwrap(), b"through the link");
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
