@@ -435,13 +435,13 @@ pub(crate) fn quoted(names: &[String]) -> String {
 #[non_exhaustive]
 pub enum SimulationError {
     /// The step size became too small for the time in floating point.
-    #[error("integration failed at t = {t}: step size underflow (the solution may blow up or be too stiff for an explicit method)")]
+    #[error("integration failed at t = {}: step size underflow (the solution may blow up or be too stiff for an explicit method)", Num(*.t))]
     StepSizeUnderflow {
         /// Time reached.
         t: f64,
     },
     /// The step budget was exhausted.
-    #[error("integration stopped at t = {t}: more than {max_steps} steps needed (raise `max_steps`, loosen the tolerances or shorten the interval)")]
+    #[error("integration stopped at t = {}: more than {max_steps} steps needed (raise `max_steps`, loosen the tolerances or shorten the interval)", Num(*.t))]
     TooManySteps {
         /// Time reached.
         t: f64,
@@ -449,7 +449,7 @@ pub enum SimulationError {
         max_steps: u32,
     },
     /// DOPRI5's stiffness test fired repeatedly.
-    #[error("integration stopped at t = {t}: the problem became stiff (an explicit method needs tiny steps here; start closer to the attractor or shorten the interval)")]
+    #[error("integration stopped at t = {}: the problem became stiff (an explicit method needs tiny steps here; start closer to the attractor or shorten the interval)", Num(*.t))]
     Stiff {
         /// Time reached.
         t: f64,
@@ -458,7 +458,7 @@ pub enum SimulationError {
     /// ([`Method::DiscreteGradient`](crate::Method::DiscreteGradient)) was
     /// not solved to rounding: its iteration diverged, or stalled above a
     /// few ulps of the state.
-    #[error("discrete-gradient step {step} from t = {t} with step size {h} did not converge: the last update of its implicit equation was {update:e} after {iterations} iterations, above rounding (take a smaller step)")]
+    #[error("discrete-gradient step {step} from t = {} with step size {} did not converge: the last update of its implicit equation was {update:e} after {iterations} iterations, above rounding (take a smaller step)", Num(*.t), Num(*.h))]
     StepNotConverged {
         /// Index of the step (0 for the first).
         step: usize,
@@ -472,7 +472,7 @@ pub enum SimulationError {
         iterations: u32,
     },
     /// The vector field or the state became NaN or infinite.
-    #[error("integration failed at t = {t}: non-finite {what} in component {index}")]
+    #[error("integration failed at t = {}: non-finite {what} in component {index}", Num(*.t))]
     NonFinite {
         /// Time where it was first seen.
         t: f64,
@@ -618,6 +618,23 @@ pub(crate) fn check_finite(what: &str, values: &[f64]) -> Result<()> {
 }
 
 /// An [`Error::InvalidArgument`] for parameter `what`.
+/// A number for a message: plain between 1e-4 and 1e7 (`0.25`, `1500`),
+/// in exponent form outside (`1e16`, `2.5e-300`) instead of Rust's hundreds
+/// of digits.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let magnitude = self.0.abs();
+        if magnitude == 0.0 || !magnitude.is_finite() || (1e-4..1e7).contains(&magnitude) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 pub(crate) fn invalid(what: &str, reason: impl Into<String>) -> Error {
     Error::InvalidArgument {
         what: what.to_owned(),

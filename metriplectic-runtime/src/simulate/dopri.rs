@@ -14,7 +14,7 @@ use std::cell::Cell;
 use ode_solvers::dop_shared::{IntegrationError, OutputType, System};
 use ode_solvers::{continuous_output_model::ContinuousOutputModel, DVector, Dopri5};
 
-use crate::error::{invalid, Result, SimulationError};
+use crate::error::{invalid, Num, Result, SimulationError};
 
 /// Error control and budget of the integrator.
 ///
@@ -386,23 +386,60 @@ pub(super) fn validate_start(x0: &[f64], t0: f64, t_end: f64) -> Result<()> {
     if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
         return Err(invalid(
             "time interval",
-            format!("[{t0}, {t_end}]: need finite t0 < t_end (only forward integration)"),
+            format!(
+                "[{}, {}]: need finite t0 < t_end (only forward integration)",
+                Num(t0),
+                Num(t_end)
+            ),
+        ));
+    }
+    // Outputs are reported at t0 + τ: an interval only a few ulps of its
+    // times long has no distinct times to report.
+    let spacing = ulp(t0.abs().max(t_end.abs()));
+    if (t_end - t0) < MIN_SPAN_ULPS * spacing {
+        return Err(invalid(
+            "time interval",
+            format!(
+                "[{}, {}] is shorter than {MIN_SPAN_ULPS} times the spacing {} of floating-point \
+                 numbers there: too short to integrate over (shift the time origin, e.g. to t0 = 0, \
+                 or lengthen the interval)",
+                Num(t0),
+                Num(t_end),
+                Num(spacing)
+            ),
         ));
     }
     Ok(())
+}
+
+/// The shortest interval, in spacings of the floating-point numbers at its
+/// ends, that [`validate_start`] accepts.
+const MIN_SPAN_ULPS: f64 = 1024.0;
+
+/// The spacing of the floating-point numbers at `value` (≥ 0), at least the
+/// smallest normal number.
+fn ulp(value: f64) -> f64 {
+    let value = value.max(f64::MIN_POSITIVE);
+    f64::from_bits(value.to_bits() + 1) - value
 }
 
 /// DOPRI5's error control and budget.
 fn validate_tolerances(options: &IntegratorOptions) -> Result<()> {
     for (what, value) in [("rtol", options.rtol), ("atol", options.atol)] {
         if !(value.is_finite() && value > 0.0) {
-            return Err(invalid(what, format!("{value}: must be finite and > 0")));
+            return Err(invalid(
+                what,
+                format!("{}: must be finite and > 0", Num(value)),
+            ));
         }
     }
     if options.rtol < 1e-14 {
         return Err(invalid(
             "rtol",
-            format!("{}: below 1e-14 no step can meet it in f64", options.rtol),
+            format!(
+                "{}: below 1e-14 no step can meet it in f64",
+                Num(options.rtol)
+            ),
         ));
     }
     // The free-energy check allows for the integration error, so an error
@@ -412,7 +449,7 @@ fn validate_tolerances(options: &IntegratorOptions) -> Result<()> {
             "rtol",
             format!(
                 "{}: a relative error of 100% or more is no error control",
-                options.rtol
+                Num(options.rtol)
             ),
         ));
     }
@@ -421,7 +458,10 @@ fn validate_tolerances(options: &IntegratorOptions) -> Result<()> {
     }
     if let Some(h) = options.max_step {
         if !(h.is_finite() && h > 0.0) {
-            return Err(invalid("max_step", format!("{h}: must be finite and > 0")));
+            return Err(invalid(
+                "max_step",
+                format!("{}: must be finite and > 0", Num(h)),
+            ));
         }
     }
     Ok(())
@@ -441,7 +481,7 @@ pub(super) fn validate_output(dim: usize, t0: f64, t_end: f64, output: &OutputTi
             if !(dt.is_finite() && *dt > 0.0) {
                 return Err(invalid(
                     "output interval",
-                    format!("{dt}: must be finite and > 0"),
+                    format!("{}: must be finite and > 0", Num(*dt)),
                 ));
             }
             let outputs = (t_end - t0) / dt;
@@ -449,8 +489,11 @@ pub(super) fn validate_output(dim: usize, t0: f64, t_end: f64, output: &OutputTi
                 return Err(invalid(
                     "output interval",
                     format!(
-                        "{dt} over [{t0}, {t_end}] asks for {outputs:.3e} outputs of {per_output} \
-                         values each, more than the 10⁸ values (800 MB) a simulation keeps"
+                        "{} over [{}, {}] asks for {outputs:.3e} outputs of {per_output} \
+                         values each, more than the 10⁸ values (800 MB) a simulation keeps",
+                        Num(*dt),
+                        Num(t0),
+                        Num(t_end)
                     ),
                 ));
             }
@@ -465,7 +508,12 @@ pub(super) fn validate_output(dim: usize, t0: f64, t_end: f64, output: &OutputTi
             {
                 return Err(invalid(
                     "output times",
-                    format!("time {k} ({}) is not within [{t0}, {t_end}]", times[k]),
+                    format!(
+                        "time {k} ({}) is not within [{}, {}]",
+                        Num(times[k]),
+                        Num(t0),
+                        Num(t_end)
+                    ),
                 ));
             }
             crate::error::check_strictly_increasing("output times", times)?;
@@ -504,6 +552,53 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(worst < 10.0 * rtol, "rtol {rtol}: relative error {worst}");
         }
+    }
+
+    /// A probe's interval [1e16, 1e16 + 4] failed on a trajectory "time 1
+    /// (10000000000000000) does not come after time 0", and [0, 5e-324]
+    /// as a step-size underflow; both are intervals too short for their
+    /// times, and numbers print in exponent form, not as hundreds of digits.
+    #[test]
+    fn intervals_too_short_for_their_times_say_so() {
+        let field = |_t: f64, x: &[f64], dx: &mut [f64]| dx[0] = -x[0];
+        for (t0, t_end, shown) in [
+            (1e16, 1e16 + 4.0, "[1e16, 1.0000000000000004e16]"),
+            (0.0, 5e-324, "[0, 5e-324]"),
+        ] {
+            let err = integrate(
+                field,
+                &[1.0],
+                t0,
+                t_end,
+                &IntegratorOptions::default(),
+                &OutputTimes::Steps,
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(err.contains(shown), "{err}");
+            assert!(err.contains("too short to integrate over"), "{err}");
+        }
+        // Long enough in ulps: integrated, from the same time origin.
+        let sol = integrate(
+            field,
+            &[1.0],
+            1e9,
+            1e9 + 1.0,
+            &IntegratorOptions::default(),
+            &OutputTimes::Interval(0.25),
+        )
+        .unwrap();
+        assert_eq!(sol.times.len(), 5);
+        let err = validate_tolerances(&IntegratorOptions {
+            rtol: 1e-16,
+            ..IntegratorOptions::default()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("1e-16: below 1e-14"), "{err}");
+        assert_eq!(Num(1e300).to_string(), "1e300");
+        assert_eq!(Num(0.25).to_string(), "0.25");
+        assert_eq!(Num(-1500.0).to_string(), "-1500");
     }
 
     #[test]

@@ -72,7 +72,7 @@ pub fn free_energy_diagnostics<S: MetriplecticSystem>(
     if !(tolerance.is_finite() && tolerance >= 0.0) {
         return Err(Error::InvalidArgument {
             what: "free-energy tolerance".to_owned(),
-            reason: format!("{tolerance}: must be finite and ≥ 0"),
+            reason: format!("{}: must be finite and ≥ 0", crate::error::Num(tolerance)),
         });
     }
     let mut report = FreeEnergyReport {

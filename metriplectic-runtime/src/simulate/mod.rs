@@ -19,7 +19,7 @@ pub use synthesize::{
 use energy::{check_energy, integrator_tolerances, outside_region};
 
 use crate::data::Trajectory;
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Num, Result};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -263,7 +263,7 @@ pub fn simulate<S: MetriplecticSystem>(
     if !(factor.is_finite() && factor >= 0.0) {
         return Err(invalid(
             "energy_tolerance_factor",
-            format!("{factor}: must be finite and ≥ 0"),
+            format!("{}: must be finite and ≥ 0", Num(factor)),
         ));
     }
     // DOPRI5's tolerances τₖ come from its outputs; the discrete gradient's
@@ -284,7 +284,7 @@ pub fn simulate<S: MetriplecticSystem>(
             if !(step.is_finite() && step > 0.0) {
                 return Err(invalid(
                     "discrete-gradient step",
-                    format!("{step}: must be finite and > 0"),
+                    format!("{}: must be finite and > 0", Num(step)),
                 ));
             }
             dopri::validate_start(x0, t0, t_end)?;
@@ -309,6 +309,19 @@ pub fn simulate<S: MetriplecticSystem>(
             (solution, Some(output.tolerances))
         }
     };
+    // Steps far shorter than the spacing of the times (t0 = 1e16, steps of
+    // 0.1) report equal times: say so instead of failing on the trajectory.
+    if let Some(k) = solution.times.windows(2).position(|t| t[1] <= t[0]) {
+        return Err(invalid(
+            "time interval",
+            format!(
+                "outputs {k} and {} both fall at t = {}: the steps are shorter than the spacing \
+                 of floating-point numbers at these times; shift the time origin (e.g. to t0 = 0)",
+                k + 1,
+                Num(solution.times[k])
+            ),
+        ));
+    }
     let n = S::DIM;
     let count = solution.times.len();
     let mut derivatives = vec![0.0; count * n];
