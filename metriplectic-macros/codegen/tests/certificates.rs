@@ -128,7 +128,7 @@ fn box_mistakes() {
             "the interval of `q` is empty: its lower bound 2 is not below its upper bound -2",
             "`q` has two intervals",
             "`z` is not a state variable",
-            "the interval of `p` is empty",
+            "the interval of `p` is the single point 1: a region needs an interval of positive width",
         ],
     );
     let all = messages(oscillator(quote! { region box(q = [0, 1], p in [0, 1]); }));

@@ -417,13 +417,19 @@ fn check_box(
         };
         if gap.numerator() <= 0 {
             valid = false;
-            diagnostics.push(syn::Error::new(
-                interval.span,
+            let message = if gap.numerator() == 0 {
+                // One point: no room for a certificate, and no order to fix.
+                format!(
+                    "the interval of `{name}` is the single point {lower}: a region needs an \
+                     interval of positive width, e.g. `{name} in [-2, 2]`"
+                )
+            } else {
                 format!(
                     "the interval of `{name}` is empty: its lower bound {lower} is not below its \
                      upper bound {upper}; write the lower bound first, e.g. `{name} in [-2, 2]`"
-                ),
-            ));
+                )
+            };
+            diagnostics.push(syn::Error::new(interval.span, message));
             continue;
         }
         bounds[j] = Some((lower, upper));
