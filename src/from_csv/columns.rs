@@ -45,8 +45,9 @@ pub(super) fn infer_system(path: &Path) -> Result<SystemName, FromCsvError> {
         [] => Err(FromCsvError::UnknownSystem {
             path: path.to_owned(),
             reason: format!(
-                "its columns ({}) are not the state variables of any system this example knows",
-                columns.join(", ")
+                "its columns ({}) are not the state variables of any system this example knows{}",
+                columns.join(", "),
+                header_hint(&columns)
             ),
             known: SystemName::catalogue(),
         }),
@@ -62,5 +63,32 @@ pub(super) fn infer_system(path: &Path) -> Result<SystemName, FromCsvError> {
             ),
             known: SystemName::catalogue(),
         }),
+    }
+}
+
+/// What a header that names no system most likely is: a first line of
+/// numbers (no header), or one column holding `;` or tabs (another
+/// delimiter); empty if neither.
+fn header_hint(columns: &[String]) -> &'static str {
+    if columns.iter().all(|c| c.parse::<f64>().is_ok()) {
+        " (the first line holds numbers only: the file needs a header line naming its columns, e.g. `trajectory,t,q,p`)"
+    } else if columns.len() == 1 && columns[0].contains([';', '\t']) {
+        " (one column holding `;` or tabs: the file must be comma-separated)"
+    } else {
+        ""
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::header_hint;
+
+    #[test]
+    fn headers_that_are_data_or_another_delimiter_get_a_hint() {
+        let cells = |line: &str| line.split(',').map(str::to_owned).collect::<Vec<_>>();
+        assert!(header_hint(&cells("0,0.0109,1.5")).contains("needs a header line"));
+        assert!(header_hint(&cells("t;q;p")).contains("comma-separated"));
+        assert!(header_hint(&cells("t\tq\tp")).contains("comma-separated"));
+        assert_eq!(header_hint(&cells("t,x,speed")), "");
     }
 }

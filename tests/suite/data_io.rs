@@ -256,7 +256,7 @@ fn cell_errors_name_line_and_column() {
     ));
     assert_eq!(
         msg,
-        "line 4, column 1 (`t`): time 0.5 does not come after 0.5 on line 3: times must strictly increase within a trajectory"
+        "line 4, column 1 (`t`): time 0.5 does not come after 0.5 on line 3: times must strictly increase within a trajectory (a file of several trajectories needs a `trajectory` column)"
     );
     let (_, msg) = csv_error("q,trajectory,p,t\n1,r1,2,0\n1,r1,2,1\n1,r1,2,0.5\n");
     assert_eq!(
