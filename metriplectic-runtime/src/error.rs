@@ -33,7 +33,7 @@ pub enum Error {
     /// A metric that is not positive semidefinite: the free energy could
     /// decrease along ẋ, which no model may allow.
     #[error(
-        "{what}: K(x) is not positive semidefinite: eigenvalue {eigenvalue:e} in direction {direction:?}{}; the free energy would decrease there (dE/dt = ∇Eᵀ K ∇E < 0)",
+        "{what}: K(x) is not positive semidefinite: eigenvalue {eigenvalue:e} in direction {direction:?}{}; the free energy would decrease there (dE/dt = ∇Eᵀ K ∇E < 0; for a classical system, the entropy: dS/dt = ∇Sᵀ K ∇S < 0)",
         state.as_ref().map(|x| format!(" at x = {x:?}")).unwrap_or_else(|| " (for every x: the metric is constant)".to_owned())
     )]
     MetricNotPositive {

@@ -221,6 +221,16 @@ fn model_files_carry_the_region_mode_and_certificate() {
             .contains("different certificate region or mode"),
         "{error}"
     );
+    // The text derived from them, edited alone, is named as such.
+    let reworded = json.replace("for every state", "for some states");
+    assert_ne!(reworded, json);
+    let error = Model::<DragDuffing>::from_json(&reworded).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("whose `free_energy_certified` text was edited"),
+        "{error}"
+    );
     // A certificate with the wrong shape is refused, naming the block.
     let mut value: serde_json::Value = serde_json::from_str(&json).unwrap();
     value["certificate"]["lower"][0]["size"] = 2.into();
@@ -313,6 +323,27 @@ fn a_metric_certified_on_the_region_only_is_accepted_there_only() {
             .contains("unless the system declares `certificate on region;`"),
         "{error}"
     );
+    // A witness inside the region needs no word about outside it.
+    let error =
+        Model::<Everywhere>::new(entropy.clone(), shrinking_metric::<Everywhere>(8.0)).unwrap_err();
+    match &error {
+        Error::MetricNotPositive {
+            state: Some(x),
+            what,
+            ..
+        } if x[0].abs() <= 0.5 && x[1].abs() <= 1.0 => {
+            assert!(!what.contains("outside the region too"), "{error}")
+        }
+        other => panic!("expected a witness in the box: {other}"),
+    }
+    // A constant indefinite metric is indefinite everywhere: no state named.
+    let mut constant = vec![0.0; OnTheBoxOnly::metric_coefficient_count()];
+    constant[0] = -1.0;
+    constant[2 * OnTheBoxOnly::METRIC_EXPONENTS.len()] = 1.0;
+    match Model::<OnTheBoxOnly>::new(entropy.clone(), constant).unwrap_err() {
+        Error::MetricNotPositive { state: None, .. } => {}
+        other => panic!("{other}"),
+    }
     // 1 − 8q² < 0 at q = ±0.5: refused on the region too, with a state inside it.
     match Model::<OnTheBoxOnly>::new(entropy, shrinking_metric::<OnTheBoxOnly>(8.0)).unwrap_err() {
         Error::MetricNotPositive {

@@ -61,15 +61,42 @@ pub(crate) fn check_metric<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> 
         if certificate.mode == CertificateMode::OnRegion {
             return check_on_region::<S>(what, theta, &certificate);
         }
-        // A region only bounds K from above by default: say so, since a
-        // witness outside the region is otherwise puzzling.
-        let hint = format!(
-            "{what} (K(x) ⪰ 0 is required for every x, outside the region too, unless the \
-             system declares `certificate on region;`)"
-        );
-        return check_everywhere::<S>(&hint, theta);
+        // A region only bounds K from above by default: say so when the
+        // witness lies outside the region (or there is none), where it is
+        // otherwise puzzling.
+        return check_everywhere::<S>(what, theta).map_err(|error| match error {
+            Error::MetricNotPositive {
+                what,
+                eigenvalue,
+                direction,
+                state,
+            } if state
+                .as_ref()
+                .is_some_and(|x| !certificate.region.contains(x)) =>
+            {
+                Error::MetricNotPositive {
+                    what: outside_region_too(&what),
+                    eigenvalue,
+                    direction,
+                    state,
+                }
+            }
+            Error::MetricNotCertified { what, reason } => Error::MetricNotCertified {
+                what: outside_region_too(&what),
+                reason,
+            },
+            other => other,
+        });
     }
     check_everywhere::<S>(what, theta)
+}
+
+/// `what`, saying that the default mode needs K(x) ⪰ 0 beyond the region.
+fn outside_region_too(what: &str) -> String {
+    format!(
+        "{what} (K(x) ⪰ 0 is required for every x, outside the region too, unless the \
+         system declares `certificate on region;`)"
+    )
 }
 
 /// K(x) ⪰ 0 for every x, block by block.
@@ -509,6 +536,14 @@ fn check_on_region<S: MetriplecticSystem>(
     let scale = theta.iter().fold(0.0_f64, |m, c| m.max(c.abs()));
     if scale == 0.0 {
         return Ok(());
+    }
+    // A constant metric is PSD on the region iff it is PSD: its error
+    // names no state (a region witness would be an arbitrary one).
+    if blocks::<S>(theta)
+        .iter()
+        .all(|block| is_constant::<S>(theta, block))
+    {
+        return check_everywhere::<S>(what, theta);
     }
     let layout = Layout::of::<S>(S::SOS_REDUCED);
     layout.check::<S>()?;

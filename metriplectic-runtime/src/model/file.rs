@@ -249,9 +249,10 @@ impl<S: MetriplecticSystem> Model<S> {
                     }
                 } else if file.region != expected.region
                     || file.certificate_mode != expected.certificate_mode
-                    || file.free_energy_certified != expected.free_energy_certified
                 {
                     " with a different certificate region or mode"
+                } else if file.free_energy_certified != expected.free_energy_certified {
+                    " whose `free_energy_certified` text was edited (it follows from the region and mode)"
                 } else {
                     " with different monomial tables"
                 });
