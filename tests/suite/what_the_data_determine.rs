@@ -605,3 +605,118 @@ fn a_free_scale_is_a_warning_until_a_gauge_fixes_it() {
     let fit = identify::<RigidBody>(&noisy, &IdentifyConfig::default()).unwrap();
     assert!(scale_warning(&fit.warnings), "{:?}", fit.warnings);
 }
+
+/// A gauge where the data determine the scale is a constraint, not a
+/// choice: a probe's gauge tr K = 4 on the 2-D system (true trace 2) fitted
+/// with relative error 0.2 and no warning. And a fit that explains nothing
+/// (a probe's pure noise came back `Stagnated` with relative error 1.004)
+/// says so, instead of the free-scale warning its large residual let pass.
+#[test]
+fn a_gauge_the_data_do_not_need_and_a_fit_that_explains_nothing_are_warnings() {
+    let data = linear2d_data(200, 63);
+    let gauged = |trace: f64| IdentifyConfig {
+        search: SearchOptions {
+            gauge: Some(Gauge::MetricTrace(trace)),
+            ..SearchOptions::default()
+        },
+        max_iterations: 20,
+        ..IdentifyConfig::default()
+    };
+    let fit = identify::<Linear2d>(&data, &gauged(4.0)).unwrap();
+    assert!(
+        fit.warnings
+            .contains(&IdentifyWarning::GaugeConstrainsFit { trace: 4.0 }),
+        "{:?}",
+        fit.warnings
+    );
+    // Without a gauge the 2-D system has no warning at all
+    // (`stop_reasons::well_posed_data_have_no_warnings`).
+
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(64);
+    let mut noise =
+        |count: usize| -> Vec<f64> { (0..count).map(|_| rng.random_range(-1.0..1.0)).collect() };
+    let (states, derivatives) = (noise(400), noise(400));
+    let junk = Dataset::from_flat(2, states, derivatives).unwrap();
+    let fit = identify::<Linear2d>(&junk, &IdentifyConfig::default()).unwrap();
+    let poor = fit.warnings.iter().find_map(|w| match w {
+        IdentifyWarning::PoorFit { relative_residual } => Some(*relative_residual),
+        _ => None,
+    });
+    assert!(poor.is_some_and(|r| r > 0.9), "{:?}", fit.warnings);
+    assert!(
+        !fit.warnings
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::ScaleSymmetry { .. })),
+        "{:?}",
+        fit.warnings
+    );
+    assert!(
+        fit.warnings
+            .iter()
+            .any(|w| w.to_string().contains("explains little of the data")),
+        "{:?}",
+        fit.warnings
+    );
+}
+
+/// The analyses refuse a model their support does not describe (a probe's
+/// `sparsify` returned a dense model with three nonzero terms under a
+/// support that held them at zero, and `identifiability` analysed it), and
+/// metric coefficients the support holds at zero come back exactly zero
+/// (they were 2.9e-12: the search meets its equalities to its tolerance).
+#[test]
+fn a_model_outside_the_support_is_refused_and_held_coefficients_are_zero() {
+    let data = linear2d_data(120, 65);
+    let truth = Model::<Linear2d>::reference().unwrap();
+    let held = truth
+        .entropy_coefficients()
+        .iter()
+        .position(|&c| c != 0.0)
+        .unwrap();
+    let search = SearchOptions {
+        support: Support::full().with_zeros(&[held], &[]),
+        ..SearchOptions::default()
+    };
+    let error = identifiability(
+        &truth,
+        &data,
+        &IdentifiabilityOptions {
+            search: search.clone(),
+            ..IdentifiabilityOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("but the support holds it at zero"),
+        "{error}"
+    );
+    let config = IdentifyConfig {
+        search,
+        ..IdentifyConfig::default()
+    };
+    let error = metriplectic_runtime::sparsify(
+        &truth,
+        &data,
+        &data,
+        &config,
+        &metriplectic_runtime::SparseOptions::default(),
+    )
+    .unwrap_err();
+    assert!(error.to_string().contains("dense model"), "{error}");
+
+    // K₀₁'s constant term held at zero: exactly zero in the fit.
+    let k01 = Linear2d::METRIC_EXPONENTS.len();
+    let config = IdentifyConfig {
+        search: SearchOptions {
+            support: Support::full().with_zeros(&[], &[k01]),
+            ..SearchOptions::default()
+        },
+        max_iterations: 5,
+        ..IdentifyConfig::default()
+    };
+    let fit = identify::<Linear2d>(&data, &config).unwrap();
+    assert_eq!(fit.model.metric_coefficients()[k01], 0.0);
+}

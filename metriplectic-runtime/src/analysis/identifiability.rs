@@ -265,6 +265,9 @@ pub fn identifiability<S: MetriplecticSystem>(
     let psi = model.entropy_coefficients();
     let theta = model.metric_coefficients();
     let support = &options.search.support;
+    // The report is about the coefficients the support leaves free: a model
+    // it does not describe is not the fit it analyses.
+    support.check_model("model", psi, theta)?;
     let free_psi = support.free_entropy::<S>();
     let free_theta = support.free_metric::<S>(options.search.sos);
     let metric_rows = metric_regression::<S>(data, psi)?;

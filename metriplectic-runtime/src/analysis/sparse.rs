@@ -95,6 +95,13 @@ pub fn sparsify<S: MetriplecticSystem, D: IdentificationData>(
             format!("{} is not a finite non-negative number", options.parsimony),
         ));
     }
+    // A dense model outside the support would be returned as the
+    // candidate of no threshold under a support it breaks.
+    config.search.support.check_model(
+        "dense model",
+        dense.entropy_coefficients(),
+        dense.metric_coefficients(),
+    )?;
     // Before the term effects evaluate the system on every sample.
     crate::data::check_dataset::<S>(train)?;
     crate::data::check_dataset::<S>(validation)?;

@@ -190,6 +190,17 @@ impl Support {
         Ok(())
     }
 
+    /// Sets the metric coefficients the support holds at zero to exactly
+    /// zero: a search meets those equalities only to its solver's
+    /// tolerance (a probe's came back as 2.9e-12).
+    pub(crate) fn zero_held_metric(&self, metric: &mut [f64]) {
+        for &k in &self.metric_zero {
+            if let Some(value) = metric.get_mut(k) {
+                *value = 0.0;
+            }
+        }
+    }
+
     /// Errors if `entropy` or `metric` has a non-zero coefficient the
     /// support holds at zero (`what` names the model).
     pub fn check_model(&self, what: &str, entropy: &[f64], metric: &[f64]) -> Result<()> {

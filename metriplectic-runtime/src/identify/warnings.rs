@@ -134,6 +134,24 @@ pub enum IdentifyWarning {
         /// Distinct data states.
         states: usize,
     },
+    /// The model explains little of the data: the relative residual
+    /// ‖prediction − target‖ / ‖target‖ of its fit is at least 0.5 (0 is
+    /// exact, 1 no better than predicting zero). The data may not come
+    /// from the declared system, be mostly noise, or need what the basis,
+    /// the support or a gauge exclude.
+    PoorFit {
+        /// The fit's relative residual on the data.
+        relative_residual: f64,
+    },
+    /// A [`Gauge`](crate::Gauge) fixes the scale of K, but the data
+    /// determine it already (Π∇E ≠ 0 on them): the gauge is then a
+    /// constraint on the fit, which biases it unless its value is the true
+    /// one. Not raised for the classical form, whose scale the data never
+    /// determine.
+    GaugeConstrainsFit {
+        /// The gauge's value, tr K(0).
+        trace: f64,
+    },
 }
 
 impl std::fmt::Display for IdentifyWarning {
@@ -190,6 +208,19 @@ impl std::fmt::Display for IdentifyWarning {
                 "{outside} of the {states} data states lie outside the region the metric is \
                  certified on (`certificate on region`): dE/dt ≥ 0 is not proved where they are; \
                  enlarge the region or drop `certificate on region`"
+            ),
+            Self::PoorFit { relative_residual } => write!(
+                f,
+                "the model explains little of the data: its relative residual is \
+                 {relative_residual:.3} (0 is exact, 1 no better than predicting zero); the data \
+                 may not come from this system or be mostly noise, or the model they need lies \
+                 outside the basis, the support or the gauge"
+            ),
+            Self::GaugeConstrainsFit { trace } => write!(
+                f,
+                "the data determine the scale of K and E (Π∇E ≠ 0 on them), so the gauge \
+                 tr K(0) = {trace:e} constrains the fit and biases it unless that is the true \
+                 trace; drop SearchOptions::gauge unless the trace is known"
             ),
             Self::StillImproving {
                 cost,
@@ -359,7 +390,27 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             }
         }
     }
-    if scale_is_free(data, model, config, &entropy) {
+    let misfit = relative_residual(data, &entropy, psi);
+    if misfit >= POOR_FIT {
+        // A fit this poor says nothing about symmetries of the data.
+        warnings.push(IdentifyWarning::PoorFit {
+            relative_residual: misfit,
+        });
+        return Ok(warnings);
+    }
+    // The classical form's scale is never determined by data.
+    let poisson_is_zero = if S::CLASSICAL.is_none() {
+        poisson_part_vanishes(data, model, misfit)
+    } else {
+        None
+    };
+    if let Some(crate::Gauge::MetricTrace(trace)) = config.search.gauge {
+        if poisson_is_zero == Some(false) {
+            warnings.push(IdentifyWarning::GaugeConstrainsFit { trace });
+        }
+    }
+    let symmetric = S::CLASSICAL.is_some() || poisson_is_zero == Some(true);
+    if symmetric && scale_is_free(data, model, config) {
         warnings.push(IdentifyWarning::ScaleSymmetry {
             classical: S::CLASSICAL.is_some(),
         });
@@ -367,25 +418,38 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     Ok(warnings)
 }
 
+/// A fit with at least this relative residual explains little of its data
+/// ([`IdentifyWarning::PoorFit`]).
+const POOR_FIT: f64 = 0.5;
+
+/// ‖r‖ / ‖y‖ of the entropy regression `entropy` at `psi`: the fit's
+/// residual against its targets (weak-form equations are integrals); 0 for
+/// targets that are all zero.
+fn relative_residual(data: &impl IdentificationData, entropy: &Regression, psi: &[f64]) -> f64 {
+    let residual = entropy.l2_residual(psi);
+    let measured = data.equations().targets.iter().map(|y| y * y).sum::<f64>();
+    if measured > 0.0 {
+        residual / measured.sqrt()
+    } else {
+        0.0
+    }
+}
+
 /// ‖Π∇E‖ over the data below this fraction of the field's, or below the
 /// fit's relative residual if that is larger: the scale symmetry holds
 /// (the identifiability report's tolerance).
 const SCALE_TOLERANCE: f64 = 1e-8;
 
-/// Whether the data leave the scale (K, E) ↦ (cK, E/c) free, or in the
-/// classical form (K, S) ↦ (cK, S/c), with no gauge to fix it. Along
-/// c = 1 + ε the field changes by −εΠ∇E (classical: −εΠ∇S = 0), so the
-/// test is Π∇E = 0 on the data, provided E/c − H stays in the entropy
-/// basis and its support (H's coefficients there exist and ψ + h is zero
-/// where the support holds ψ at zero). On noisy data "= 0" is within the
-/// fit's relative residual (from `entropy`, the entropy regression at the
-/// model's metric): doubling K then changes the field by less than the
-/// misfit does.
+/// Whether the scale (K, E) ↦ (cK, E/c), or in the classical form
+/// (K, S) ↦ (cK, S/c), is left free with no gauge to fix it, for data on
+/// which Π∇E = 0 ([`poisson_part_vanishes`]; along c = 1 + ε the field
+/// changes by −εΠ∇E, and classically by −εΠ∇S = 0): it is when E/c − H
+/// stays in the entropy basis and its support (H's coefficients there
+/// exist and ψ + h is zero where the support holds ψ at zero).
 fn scale_is_free<S: MetriplecticSystem>(
     data: &impl IdentificationData,
     model: &Model<S>,
     config: &IdentifyConfig,
-    entropy: &Regression,
 ) -> bool {
     let psi = model.entropy_coefficients();
     let some = |v: &[f64]| v.iter().any(|&c| c != 0.0);
@@ -395,6 +459,28 @@ fn scale_is_free<S: MetriplecticSystem>(
     if S::CLASSICAL.is_some() {
         return true;
     }
+    let Some(h) = hamiltonian_coefficients::<S>(data) else {
+        return false;
+    };
+    let free = config.search.support.free_entropy::<S>();
+    let shifted: Vec<f64> = psi.iter().zip(&h).map(|(a, b)| a + b).collect();
+    let size = shifted.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let held = (0..shifted.len())
+        .filter(|k| free.binary_search(k).is_err())
+        .fold(0.0_f64, |m, k| m.max(shifted[k].abs()));
+    size > 0.0 && held <= 1e-9 * size
+}
+
+/// Whether Π∇E vanishes on the data's states: ‖Π∇E‖ below
+/// [`SCALE_TOLERANCE`] of the field's size, or below the fit's relative
+/// residual `misfit` where that is larger (doubling K then changes the
+/// field by less than the misfit does). `None` when the field is zero on
+/// all of them (nothing to compare with).
+fn poisson_part_vanishes<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+    model: &Model<S>,
+    misfit: f64,
+) -> Option<bool> {
     let n = S::DIM;
     let (mut gradient, mut poisson, mut field) = (vec![0.0; n], vec![0.0; n * n], vec![0.0; n]);
     let (mut poisson_part, mut whole) = (0.0_f64, 0.0_f64);
@@ -408,29 +494,8 @@ fn scale_is_free<S: MetriplecticSystem>(
             whole += f * f;
         }
     }
-    let residual = entropy.l2_residual(psi);
-    // Relative sizes: the states' Π∇E against their field, the equations'
-    // residual against their targets (weak-form equations are integrals).
-    let measured = data.equations().targets.iter().map(|y| y * y).sum::<f64>();
-    let misfit = if measured > 0.0 {
-        residual / measured.sqrt()
-    } else {
-        0.0
-    };
-    // Cheap first: H's coefficients take a least-squares solve.
-    if !(whole > 0.0 && poisson_part.sqrt() <= SCALE_TOLERANCE.max(misfit) * whole.sqrt()) {
-        return false;
-    }
-    let Some(h) = hamiltonian_coefficients::<S>(data) else {
-        return false;
-    };
-    let free = config.search.support.free_entropy::<S>();
-    let shifted: Vec<f64> = psi.iter().zip(&h).map(|(a, b)| a + b).collect();
-    let size = shifted.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let held = (0..shifted.len())
-        .filter(|k| free.binary_search(k).is_err())
-        .fold(0.0_f64, |m, k| m.max(shifted[k].abs()));
-    size > 0.0 && held <= 1e-9 * size
+    // Relative sizes: the states' Π∇E against their field.
+    (whole > 0.0).then(|| poisson_part.sqrt() <= SCALE_TOLERANCE.max(misfit) * whole.sqrt())
 }
 
 /// Numerical rank of the regression's `columns` on the subspace where the

@@ -262,6 +262,7 @@ fn step_with_offset<S: MetriplecticSystem>(
     let certificate = sos.certificate(&solution);
     let mut metric = theta_from_gram::<S>(&layout, &certificate.lower);
     degenerate.project_coefficients(&mut metric);
+    options.support.zero_held_metric(&mut metric);
     let mut entropy = all_psi.to_vec();
     for ((&k, v), d) in free.iter().zip(&psi).zip(&step[t_len..]) {
         entropy[k] = (v + d).clamp(-eta, eta);

@@ -76,6 +76,7 @@ pub fn metric_search<S: MetriplecticSystem>(
     let certificate = sos.certificate(&solution);
     let mut coefficients = theta_from_gram::<S>(&layout, &certificate.lower);
     degenerate.project_coefficients(&mut coefficients);
+    options.support.zero_held_metric(&mut coefficients);
     let cost = Model::<S>::new(entropy.to_vec(), coefficients.clone())
         .ok()
         .and_then(|model| model_cost(&model, data).ok());
