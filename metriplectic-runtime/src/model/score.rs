@@ -38,8 +38,8 @@ pub struct Score {
     pub mean_abs_residual: f64,
     /// 1 − Σ(target − prediction)² / Σ(target − mean target)², the mean
     /// taken per state component (1 is a perfect fit). Undefined when the
-    /// targets do not vary (e.g. a single equation): NaN for an exact fit
-    /// there, −∞ otherwise.
+    /// targets do not vary beyond rounding (a single equation, or copies of
+    /// one): NaN for a fit exact to rounding there, −∞ otherwise.
     pub r_squared: f64,
     /// Number of equations (samples or weak-form windows) scored.
     pub equations: usize,
@@ -130,13 +130,28 @@ fn score(n: usize, predictions: &[f64], targets: &[f64]) -> Score {
             spread2 += (target - means[j]).powi(2);
         }
     }
+    // Targets that vary only by the rounding of their mean do not vary: R²
+    // is then undefined, not a ratio of two roundings (a probe's 50 copies
+    // of one sample scored R² = −184.6 for a residual of 8e-16).
+    let rounding2 = (ROUNDING_ULPS * f64::EPSILON).powi(2) * target2;
+    let r_squared = if spread2 > rounding2 {
+        1.0 - residual2 / spread2
+    } else if residual2 <= rounding2 {
+        f64::NAN
+    } else {
+        f64::NEG_INFINITY
+    };
     Score {
         relative_error: (residual2 / target2).sqrt(),
         mean_abs_residual: absolute / targets.len().max(1) as f64 * unit,
-        r_squared: 1.0 - residual2 / spread2,
+        r_squared,
         equations: count,
     }
 }
+
+/// Spreads and residuals within this many ulps of the targets' size are
+/// rounding.
+const ROUNDING_ULPS: f64 = 64.0;
 
 #[cfg(test)]
 mod tests {
@@ -150,6 +165,15 @@ mod tests {
         assert!((huge.mean_abs_residual - 0.5e200).abs() < 1e185);
         // The targets do not vary: R² is -∞ for an inexact fit, not NaN.
         assert_eq!(huge.r_squared, f64::NEG_INFINITY);
+        // Copies of one target whose mean rounds: still no variation, and
+        // a residual of rounding size is an exact fit.
+        let copies = vec![0.1; 50];
+        let rounded: Vec<f64> = copies.iter().map(|t| t + 1e-17).collect();
+        assert!(score(1, &rounded, &copies).r_squared.is_nan());
+        assert_eq!(
+            score(1, &vec![0.2; 50], &copies).r_squared,
+            f64::NEG_INFINITY
+        );
         // The same numbers at ordinary size give the same score.
         let small = score(1, &[2.0, 1.0], &[1.0, 1.0]);
         assert_eq!(small.relative_error, huge.relative_error);

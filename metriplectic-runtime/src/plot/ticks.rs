@@ -130,9 +130,11 @@ pub fn integer_axis_ticks(low: f64, high: f64) -> crate::Result<Vec<AxisTick>> {
     if first > last {
         return Ok(Vec::new());
     }
-    let step = steps()
-        .map(i64::from)
-        .chain((10..=15).map(|k| 10i64.pow(k)))
+    // The steps of `steps`, continued to 5e15 (i32 ends at 5e8; a probe's
+    // (0, 9e9) got the single tick 0).
+    let step = [1i64, 2, 3, 5]
+        .into_iter()
+        .chain((1..=15).flat_map(|k| [1, 2, 5].map(|m| m * 10i64.pow(k))))
         .find(|&s| {
             let count = last.div_euclid(s) - (first - 1).div_euclid(s);
             count <= MAX_LABELS as i64
@@ -371,6 +373,15 @@ mod tests {
         );
         let big = integer_axis_ticks(1.0, 1e12).unwrap();
         assert!(big.len() <= 10 && big.iter().all(|t| t.value.fract() == 0.0));
+        // Every range up to the limit gets several ticks (a probe's
+        // (0, 9e9) and (−9.9e14, 9.9e14) got only 0).
+        for (low, high) in [(0.0, 9e9), (-9.9e14, 9.9e14), (0.0, 3e9), (7.0, 4e11)] {
+            let ticks = integer_axis_ticks(low, high).unwrap();
+            assert!(
+                (4..=10).contains(&ticks.len()),
+                "({low}, {high}): {ticks:?}"
+            );
+        }
         assert!(integer_axis_ticks(2.0, 1.0).is_err());
     }
 
