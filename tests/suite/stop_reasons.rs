@@ -169,6 +169,27 @@ fn a_run_cut_short_while_improving_says_so() {
         .any(|w| matches!(w, IdentifyWarning::StillImproving { .. })));
 }
 
+/// The warnings judge the samples the fit used: with most of the data held
+/// out, the pool can be too small for the model (a probe's 200 samples
+/// with 0.995 held out left one, and no warning said so).
+#[test]
+fn a_held_out_split_that_leaves_too_few_samples_is_underdetermined() {
+    let data = linear2d_data(40, 6);
+    let config = IdentifyConfig {
+        batch_size: Some(4),
+        max_iterations: 3,
+        validation: metriplectic_runtime::Validation::HeldOut { fraction: 0.9 },
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<Linear2d>(&data, &config).unwrap();
+    let equations = result.warnings.iter().find_map(|w| match w {
+        IdentifyWarning::Underdetermined { equations, .. } => Some(*equations),
+        _ => None,
+    });
+    // 4 pool samples × 2 components, not all 40 samples.
+    assert_eq!(equations, Some(8), "{:?}", result.warnings);
+}
+
 /// `Validation::HeldOut` keeps its samples out of every batch, the final
 /// polish included: the polish fits the pool only, so the score that
 /// decides whether it is kept stays out of sample.

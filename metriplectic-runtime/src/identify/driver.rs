@@ -306,7 +306,9 @@ pub(super) fn finish<S: MetriplecticSystem, D: IdentificationData>(
             }
         }
     }
-    let mut warnings = data_warnings(data, &state.model, config)?;
+    // What the fit's own samples determine: held-out samples never entered
+    // it (a probe's pool of one sample, held out of 200, got no warning).
+    let mut warnings = data_warnings(&split.pool, &state.model, config)?;
     warnings.extend(still_improving);
     Ok(Identification {
         model: state.model,
