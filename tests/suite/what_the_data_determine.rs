@@ -215,6 +215,9 @@ fn degree_caps_and_supports_are_checked() {
     assert!(Support::degree_caps::<Linear2d>(0, 0).is_err());
     assert!(Support::degree_caps::<Linear2d>(9, 0).is_err());
     assert!(Support::degree_caps::<Linear2d>(8, 4).is_err());
+    // An odd metric cap is refused as the declaration refuses odd degrees.
+    let odd = Support::degree_caps::<Linear2d>(8, 1).unwrap_err();
+    assert!(odd.to_string().contains("1 is odd"), "{odd}");
     let caps = Support::degree_caps::<Linear2d>(2, 0).unwrap();
     assert_eq!(caps.free_entropy::<Linear2d>(), vec![0, 1, 2, 3, 4]);
 
@@ -719,4 +722,66 @@ fn a_model_outside_the_support_is_refused_and_held_coefficients_are_zero() {
     };
     let fit = identify::<Linear2d>(&data, &config).unwrap();
     assert_eq!(fit.model.metric_coefficients()[k01], 0.0);
+}
+
+/// Degree selection and the bootstrap pass on what their refits' data
+/// cannot determine (a probe's one-sample selection chose degree 4 without
+/// a word, and replicates at the origin gave zero-width intervals), and
+/// candidates come in increasing degree whatever order the options give.
+#[test]
+fn degree_selection_and_bootstrap_keep_their_refits_warnings() {
+    let (train, validation) = (duffing_samples(3, 28), duffing_samples(40, 29));
+    let selection = select_degrees::<DuffingDegree8, _>(
+        &train,
+        &validation,
+        &IdentifyConfig {
+            max_iterations: 3,
+            ..IdentifyConfig::default()
+        },
+        &DegreeOptions {
+            entropy: Some(vec![4, 2, 4]),
+            ..DegreeOptions::default()
+        },
+    )
+    .unwrap();
+    let degrees: Vec<u32> = selection
+        .candidates
+        .iter()
+        .map(|c| c.entropy_degree)
+        .collect();
+    assert_eq!(degrees, [2, 4]);
+    assert!(
+        selection.warnings.iter().any(|w| matches!(
+            w,
+            IdentifyWarning::Underdetermined { .. } | IdentifyWarning::RankDeficient { .. }
+        )),
+        "{:?}",
+        selection.warnings
+    );
+
+    // Groups at rest at the origin: ẋ = 0 determines no entropy.
+    let at_rest =
+        |count: usize| Dataset::from_flat(2, vec![0.0; 2 * count], vec![0.0; 2 * count]).unwrap();
+    let groups = vec![at_rest(5), at_rest(5), at_rest(5)];
+    let result = bootstrap::<Linear2d, _>(
+        &groups,
+        &IdentifyConfig {
+            max_iterations: 3,
+            ..IdentifyConfig::default()
+        },
+        &BootstrapOptions {
+            replicates: 3,
+            ..BootstrapOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(result.warnings.len(), result.replicates.len());
+    assert!(
+        result.warnings.iter().all(|w| w
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::RankDeficient { .. }))),
+        "{:?}",
+        result.warnings
+    );
+    assert_eq!(result.first_failure, None);
 }

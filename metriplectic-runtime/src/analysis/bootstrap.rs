@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::IdentificationData;
 use crate::error::{invalid, Error, Result};
-use crate::identify::{identify, IdentifyConfig};
+use crate::identify::{identify, IdentifyConfig, IdentifyWarning};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -66,8 +66,16 @@ pub struct Bootstrap<S: MetriplecticSystem> {
     /// The model of every replicate whose identification succeeded, in
     /// replicate order.
     pub replicates: Vec<Model<S>>,
+    /// Each replicate's [`Identification::warnings`](crate::Identification::warnings),
+    /// in the order of `replicates`: intervals from replicates whose data
+    /// cannot determine the model are not uncertainties of the data's model.
+    pub warnings: Vec<Vec<IdentifyWarning>>,
     /// Replicates whose identification returned an error.
     pub failed: usize,
+    /// The first such error, in words (`None` if none failed): replicates
+    /// that fail for a reason tied to their draw (a batch larger than the
+    /// groups drawn) bias the intervals towards the draws that succeeded.
+    pub first_failure: Option<String>,
     /// Interval coverage.
     pub level: f64,
     /// Percentile interval of every entropy coefficient.
@@ -137,7 +145,7 @@ pub fn bootstrap<S: MetriplecticSystem, D: IdentificationData>(
         checkpoint: None,
         ..config.clone()
     };
-    let results: Vec<Result<Model<S>>> = (0..options.replicates)
+    let results: Vec<Result<(Model<S>, Vec<IdentifyWarning>)>> = (0..options.replicates)
         .into_par_iter()
         .map(|b| {
             let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
@@ -146,14 +154,19 @@ pub fn bootstrap<S: MetriplecticSystem, D: IdentificationData>(
                 .map(|_| &groups[rng.random_range(0..groups.len())])
                 .collect();
             let data = D::concat(&drawn)?;
-            Ok(identify::<S>(&data, config)?.model)
+            let fit = identify::<S>(&data, config)?;
+            Ok((fit.model, fit.warnings))
         })
         .collect();
     let mut replicates = Vec::with_capacity(results.len());
+    let mut warnings = Vec::with_capacity(results.len());
     let mut first_error: Option<Error> = None;
     for result in results {
         match result {
-            Ok(model) => replicates.push(model),
+            Ok((model, replicate_warnings)) => {
+                replicates.push(model);
+                warnings.push(replicate_warnings);
+            }
             Err(err) => {
                 first_error.get_or_insert(err);
             }
@@ -176,7 +189,9 @@ pub fn bootstrap<S: MetriplecticSystem, D: IdentificationData>(
     let metric = gather(Model::metric_coefficients);
     Ok(Bootstrap {
         replicates,
+        warnings,
         failed,
+        first_failure: first_error.map(|error| error.to_string()),
         level: options.level,
         entropy,
         metric,

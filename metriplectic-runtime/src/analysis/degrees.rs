@@ -9,7 +9,7 @@ use super::refit::{preferred, refit};
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::start::default_start_metric;
-use crate::identify::{Cost, IdentifyConfig, SearchOptions, Support};
+use crate::identify::{Cost, IdentifyConfig, IdentifyWarning, SearchOptions, Support};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -68,6 +68,9 @@ pub struct DegreeSelection<S: MetriplecticSystem> {
     /// system (K∇H ≡ 0) lies within their caps and the support, e.g. 0
     /// when ∇H is not constant. Empty for other systems.
     pub skipped_metric_degrees: Vec<u32>,
+    /// The chosen refit's [`Identification::warnings`](crate::Identification::warnings):
+    /// what its training data cannot determine at the chosen degrees.
+    pub warnings: Vec<IdentifyWarning>,
 }
 
 /// Identifies `S` on `train` at every pair of degree caps of `options` and
@@ -89,14 +92,24 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
             format!("{} is not a finite non-negative number", options.parsimony),
         ));
     }
-    let entropy_degrees = options
-        .entropy
-        .clone()
-        .unwrap_or_else(|| (1..=S::ENTROPY_DEGREE).collect());
-    let metric_degrees = options
-        .metric
-        .clone()
-        .unwrap_or_else(|| (0..=S::METRIC_DEGREE).step_by(2).collect());
+    // In increasing order, each once, whatever order the options give.
+    let sorted = |mut degrees: Vec<u32>| {
+        degrees.sort_unstable();
+        degrees.dedup();
+        degrees
+    };
+    let entropy_degrees = sorted(
+        options
+            .entropy
+            .clone()
+            .unwrap_or_else(|| (1..=S::ENTROPY_DEGREE).collect()),
+    );
+    let metric_degrees = sorted(
+        options
+            .metric
+            .clone()
+            .unwrap_or_else(|| (0..=S::METRIC_DEGREE).step_by(2).collect()),
+    );
     if entropy_degrees.is_empty() || metric_degrees.is_empty() {
         return Err(invalid("degrees", "no entropy or no metric degree to try"));
     }
@@ -126,7 +139,7 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
                 validation: fit.validation,
             });
             seen.push(key);
-            fits.push((fit.model, support));
+            fits.push((fit.model, support, fit.warnings));
         }
     }
     let floor = config.tolerance
@@ -137,13 +150,14 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
         .map(|c| (c.coefficients, c.validation.sum))
         .collect();
     let chosen = preferred(&sizes, options.parsimony, floor).unwrap_or(0);
-    let (model, support) = fits.swap_remove(chosen);
+    let (model, support, warnings) = fits.swap_remove(chosen);
     Ok(DegreeSelection {
         model,
         support,
         chosen,
         candidates,
         skipped_metric_degrees,
+        warnings,
     })
 }
 

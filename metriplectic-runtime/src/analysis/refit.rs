@@ -3,7 +3,7 @@
 
 use crate::data::IdentificationData;
 use crate::error::Result;
-use crate::identify::{identify, model_cost, Cost, IdentifyConfig, Support};
+use crate::identify::{identify, model_cost, Cost, IdentifyConfig, IdentifyWarning, Support};
 use crate::model::{check_entropy, Model};
 use crate::system::MetriplecticSystem;
 
@@ -11,6 +11,8 @@ use crate::system::MetriplecticSystem;
 pub(crate) struct Refit<S: MetriplecticSystem> {
     pub model: Model<S>,
     pub validation: Cost,
+    /// The identification's warnings.
+    pub warnings: Vec<IdentifyWarning>,
 }
 
 /// Identifies on `train` with `config` restricted to `support` (joined with
@@ -63,9 +65,13 @@ pub(crate) fn refit<S: MetriplecticSystem>(
         .filter(|metric| support.check_model("refit start", &[], metric).is_ok())
         .map(<[f64]>::to_vec);
     restricted.search.support = support;
-    let model = identify::<S>(train, &restricted)?.model;
-    let validation = model_cost(&model, validation)?;
-    Ok(Refit { model, validation })
+    let fit = identify::<S>(train, &restricted)?;
+    let validation = model_cost(&fit.model, validation)?;
+    Ok(Refit {
+        model: fit.model,
+        validation,
+        warnings: fit.warnings,
+    })
 }
 
 /// The index of the preferred candidate: the simplest (fewest free

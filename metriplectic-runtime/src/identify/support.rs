@@ -70,7 +70,7 @@ impl Support {
     /// coefficients of monomials of higher degree are held at zero.
     ///
     /// Errors unless 1 ≤ `entropy` ≤ the declared entropy degree and
-    /// `metric` ≤ the declared metric degree.
+    /// `metric` is even and ≤ the declared metric degree.
     pub fn degree_caps<S: MetriplecticSystem>(entropy: u32, metric: u32) -> Result<Self> {
         if entropy == 0 || entropy > S::ENTROPY_DEGREE {
             return Err(invalid(
@@ -89,6 +89,19 @@ impl Support {
                     "{metric} exceeds the declared metric degree {} of `{}`",
                     S::METRIC_DEGREE,
                     S::NAME
+                ),
+            ));
+        }
+        // As in the declaration: a cap of odd degree is the even one below
+        // it under another name.
+        if metric % 2 == 1 {
+            return Err(invalid(
+                "metric degree cap",
+                format!(
+                    "{metric} is odd, but a metric's degree is even (K ⪰ 0 needs an even top \
+                     degree); use {} or {}",
+                    metric - 1,
+                    metric + 1
                 ),
             ));
         }
