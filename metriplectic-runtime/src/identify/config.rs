@@ -37,7 +37,7 @@ pub struct IdentifyConfig {
     /// samples (without validation: the iteration's batch) is at most
     /// `tolerance` times their scale, their mean |ẋ| per component (1 if
     /// every ẋ is zero). Relative, so that data in any units are judged
-    /// alike. Default 1e-9.
+    /// alike; in [0, 1). Default 1e-9.
     pub tolerance: f64,
     /// Stop when the run no longer improves
     /// ([`StopReason::Stagnated`](crate::StopReason::Stagnated)): noisy data
@@ -267,10 +267,16 @@ impl IdentifyConfig {
                 "must be at least 1 (usize::MAX fits the start on every sample)",
             ));
         }
-        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+        // A residual as large as the data's own scale is no fit: a probe's
+        // tolerance of 1e300 "converged" at a relative error of 0.17.
+        if !(self.tolerance.is_finite() && (0.0..1.0).contains(&self.tolerance)) {
             return Err(invalid(
                 "tolerance",
-                format!("{} is not a finite non-negative number", self.tolerance),
+                format!(
+                    "{} is not in [0, 1): it is relative to the data's mean |ẋ|, and 1 or \
+                     more would accept any model",
+                    self.tolerance
+                ),
             ));
         }
         if let Some(stagnation) = &self.stagnation {

@@ -36,14 +36,15 @@ pub struct SolverSettings {
     pub time_limit: Option<f64>,
     /// Absolute duality-gap tolerance. Default 1e-8.
     pub tol_gap_abs: f64,
-    /// Relative duality-gap tolerance. Default 1e-8.
+    /// Relative duality-gap tolerance, below 1. Default 1e-8.
     pub tol_gap_rel: f64,
-    /// Primal/dual feasibility tolerance. Default 1e-8.
+    /// Primal/dual feasibility tolerance, below 1. Default 1e-8.
     pub tol_feas: f64,
     /// Print the solver's iteration log to standard error. Default `false`.
     pub verbose: bool,
     /// Factor multiplying the L1 objective before solving (the paper's code
-    /// uses 10⁴); reported costs are always recomputed unscaled. Default 1.
+    /// uses 10⁴), in [1e-4, 1e8]; reported costs are always recomputed
+    /// unscaled. Default 1.
     pub objective_scale: f64,
     /// Which solver runs. Default [`SolverBackend::Dense`].
     pub backend: SolverBackend,
@@ -64,6 +65,10 @@ impl Default for SolverSettings {
     }
 }
 
+/// The objective scales [`SolverSettings::validate`] accepts: measured on a
+/// 2-D system, 1e-4 to 1e8 all converged.
+const OBJECTIVE_SCALES: (f64, f64) = (1e-4, 1e8);
+
 impl SolverSettings {
     /// Checks that every value is finite and positive where it must be.
     pub fn validate(&self) -> Result<()> {
@@ -80,6 +85,32 @@ impl SolverSettings {
                     format!("{value} is not a finite positive number"),
                 ));
             }
+        }
+        // Relative tolerances of 100% accept any point, and an objective
+        // scaled far from 1 meets the absolute gap test at once (a probe's
+        // 1e-300 and its tolerances of 1e10 returned poor fits silently).
+        for (what, value) in [
+            ("solver tol_gap_rel", self.tol_gap_rel),
+            ("solver tol_feas", self.tol_feas),
+        ] {
+            if value >= 1.0 {
+                return Err(invalid(
+                    what,
+                    format!(
+                        "{value:e} is not below 1: a relative tolerance of 100% accepts any point"
+                    ),
+                ));
+            }
+        }
+        if !(OBJECTIVE_SCALES.0..=OBJECTIVE_SCALES.1).contains(&self.objective_scale) {
+            return Err(invalid(
+                "solver objective_scale",
+                format!(
+                    "{:e} is outside [{:e}, {:e}], the range in which the solver's absolute \
+                     tolerances keep their meaning",
+                    self.objective_scale, OBJECTIVE_SCALES.0, OBJECTIVE_SCALES.1
+                ),
+            ));
         }
         if let Some(limit) = self.time_limit {
             // Infinity too: JSON has no infinity, so a checkpoint would read
@@ -112,6 +143,32 @@ mod tests {
         };
         let err = settings.validate().unwrap_err().to_string();
         assert!(err.contains("tol_feas"), "{err}");
+        for (settings, expected) in [
+            (
+                SolverSettings {
+                    tol_gap_rel: 1e10,
+                    ..SolverSettings::default()
+                },
+                "tol_gap_rel: 1e10 is not below 1",
+            ),
+            (
+                SolverSettings {
+                    objective_scale: 1e-300,
+                    ..SolverSettings::default()
+                },
+                "objective_scale: 1e-300 is outside [1e-4, 1e8]",
+            ),
+        ] {
+            let err = settings.validate().unwrap_err().to_string();
+            assert!(err.contains(expected), "{err}");
+        }
+        // The paper's scale is inside the range.
+        SolverSettings {
+            objective_scale: 1e4,
+            ..SolverSettings::default()
+        }
+        .validate()
+        .unwrap();
     }
 
     #[cfg(feature = "clarabel")]
