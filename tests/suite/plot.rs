@@ -305,6 +305,14 @@ fn free_energy_curves_write_png_and_svg() {
         text.contains("E_lim = the limit of E along it"),
         "convention note missing"
     );
+    // Times that go back are not a trajectory (a probe's were drawn).
+    let backwards = [(vec![0.0, 2.0, 1.0], vec![-3.0, -2.0, -1.5])];
+    let err = free_energy_curves(out.file("backwards.svg"), &backwards, &labels).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("free-energy curve 0 (times): time 2 (1) does not come after time 1 (2)"),
+        "{err}"
+    );
 }
 
 /// The figure shows E_lim − E: a constant added to a curve (the freedom an

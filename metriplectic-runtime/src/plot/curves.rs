@@ -107,7 +107,8 @@ pub fn loss_curves(
 /// [`PlotError::Empty`] for no curves or an empty one,
 /// [`PlotError::LengthMismatch`] if times and values differ in length,
 /// [`PlotError::NonFinite`] for NaN or infinite times or values (naming the
-/// curve and index),
+/// curve and index), [`PlotError::InvalidArgument`] for times that do not
+/// increase,
 /// [`PlotError::NoPositiveValues`] if E is constant along every curve (no
 /// difference to show), and the file errors of
 /// [`phase_portrait_2d`](super::phase_portrait_2d).
@@ -146,6 +147,7 @@ where
         }
         data::finite(&format!("{what} (times)"), times)?;
         data::finite(&format!("{what} (values)"), values)?;
+        data::increasing(&format!("{what} (times)"), times)?;
         let gaps = gaps_to_limit(times, values);
         data::finite(&format!("{what} (E_lim − E, overflowing)"), &gaps)?;
         lines.push(Line {

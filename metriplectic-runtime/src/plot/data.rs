@@ -66,6 +66,23 @@ pub(crate) fn finite(what: &str, values: &[f64]) -> Result<(), PlotError> {
     }
 }
 
+/// Checks that `times` (finite) increase: curves over time are drawn in
+/// that order, and one that goes back in time is not a trajectory.
+pub(crate) fn increasing(what: &str, times: &[f64]) -> Result<(), PlotError> {
+    match times.windows(2).position(|t| t[1] <= t[0]) {
+        None => Ok(()),
+        Some(k) => Err(PlotError::InvalidArgument {
+            what: what.to_owned(),
+            reason: format!(
+                "time {} ({}) does not come after time {k} ({}); times must increase",
+                k + 1,
+                times[k + 1],
+                times[k]
+            ),
+        }),
+    }
+}
+
 /// Checks that every coordinate of a planar curve is finite.
 pub(crate) fn finite_pairs(what: &str, points: &[(f64, f64)]) -> Result<(), PlotError> {
     match points

@@ -181,6 +181,7 @@ where
                 return Err(PlotError::Empty { what });
             }
             data::finite(&format!("{what} (times)"), times)?;
+            data::increasing(&format!("{what} (times)"), times)?;
             let states = states
                 .iter()
                 .enumerate()
