@@ -22,7 +22,7 @@ use crate::system::MetriplecticSystem;
 
 /// Options of [`bootstrap`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct BootstrapOptions {
     /// Number of replicates, 2 to 100 000. Default 50.
     pub replicates: usize,

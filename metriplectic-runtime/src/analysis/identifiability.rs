@@ -37,7 +37,7 @@ use crate::system::{metric_pair_index, MetriplecticSystem};
 
 /// Options of [`identifiability`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct IdentifiabilityOptions {
     /// Directions whose singular value (of the column-normalised Jacobian,
     /// relative to its largest) is at most this count as undetermined.

@@ -19,7 +19,7 @@ use crate::system::MetriplecticSystem;
 
 /// Options of [`sparsify`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SparseOptions {
     /// Relative thresholds τ tried, each in (0, 1). Default nine values
     /// from 1e-5 to 1e-1, two per decade (1 and 3 times a power of ten).

@@ -30,7 +30,7 @@ use crate::error::{invalid, Result};
 
 /// How trajectories are cut into weak-form windows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct WeakForm {
     /// Samples per window (≥ 3; the test function vanishes at both ends).
     /// Default 15.

@@ -33,6 +33,7 @@ use crate::system::MetriplecticSystem;
 
 /// Where and how often [`identify`](crate::identify) saves checkpoints.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CheckpointConfig {
     /// The checkpoint file (replaced at every save). Its directory must
     /// exist, and a file already there must be a checkpoint: anything else

@@ -22,7 +22,7 @@ use crate::system::MetriplecticSystem;
 /// assert!(matches!(IdentifyConfig::paper().scheme, IterationScheme::Alternating));
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct IdentifyConfig {
     /// `None` (the default): Algorithm 1 on the full data. `Some(q)`:
     /// Algorithm 2, a fresh minibatch of q distinct samples each iteration.
@@ -138,7 +138,7 @@ pub struct IdentifyConfig {
 /// `window` consecutive iterations — which includes iterations whose steps
 /// were all rejected.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct Stagnation {
     /// Iterations without improvement before stopping. Default 5.
     pub window: usize,
@@ -383,7 +383,7 @@ impl IdentifyConfig {
 /// ρ < `poor_ratio` (including a rejected or failed step) multiplies it by
 /// `shrink` (down to `min_radius`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct TrustRegion {
     /// Δ of the first joint step. Default 0.1.
     pub initial_radius: f64,
@@ -476,5 +476,32 @@ impl TrustRegion {
             _ => radius * self.shrink,
         };
         next.clamp(self.min_radius, self.max_radius)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::IdentifyConfig;
+
+    /// A configuration read from JSON: a misspelt field is an error naming
+    /// it, not silently the default (a probe's `"etaa"` was dropped).
+    #[test]
+    fn unknown_fields_in_a_configuration_are_errors() {
+        let text = r#"{"search": {"eta": 5, "etaa": 3}}"#;
+        let err = serde_json::from_str::<IdentifyConfig>(text)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("unknown field `etaa`"), "{err}");
+        let text = r#"{"max_iteration": 3}"#;
+        assert!(serde_json::from_str::<IdentifyConfig>(text).is_err());
+        // Omitted fields are still the defaults.
+        let config: IdentifyConfig = serde_json::from_str(r#"{"max_iterations": 3}"#).unwrap();
+        assert_eq!(
+            config,
+            IdentifyConfig {
+                max_iterations: 3,
+                ..IdentifyConfig::default()
+            }
+        );
     }
 }

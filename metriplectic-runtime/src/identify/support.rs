@@ -48,7 +48,7 @@ pub struct Support {
 /// A support as written in a file: the lists may come unsorted or with
 /// repeats, and the searches look indices up by binary search.
 #[derive(Deserialize, Default)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 struct SupportFields {
     entropy_zero: Vec<usize>,
     metric_zero: Vec<usize>,

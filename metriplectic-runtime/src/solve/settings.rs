@@ -27,7 +27,7 @@ pub enum SolverBackend {
 /// termination tests): at most 200 iterations, no time limit, gaps and
 /// feasibility to 1e-8, no log, objective scale 1, the dense backend.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SolverSettings {
     /// Interior-point iteration limit per solve. Default 200.
     pub max_iter: u32,

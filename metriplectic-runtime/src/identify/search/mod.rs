@@ -30,7 +30,7 @@ use crate::solve::{L1Solution, SolveStatus, SolverSettings};
 
 /// Options shared by the three searches.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SearchOptions {
     /// Coefficient bound η: |ψₖ| ≤ η and 0 ⪯ K(x) ⪯ ηI, at most 1e15 (the
     /// largest coefficient a model holds). Default `None`: η follows the
