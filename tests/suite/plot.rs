@@ -305,6 +305,16 @@ fn free_energy_curves_write_png_and_svg() {
         text.contains("E_lim = the limit of E along it"),
         "convention note missing"
     );
+    // A directory where the figure goes: one "invalid …", not two.
+    let directory = out.file("a_directory.svg");
+    std::fs::create_dir_all(&directory).unwrap();
+    let err = free_energy_curves(&directory, &curves, &labels)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("invalid figure path: ") && !err.contains("invalid file path"),
+        "{err}"
+    );
     // Times that go back are not a trajectory (a probe's were drawn).
     let backwards = [(vec![0.0, 2.0, 1.0], vec![-3.0, -2.0, -1.5])];
     let err = free_energy_curves(out.file("backwards.svg"), &backwards, &labels).unwrap_err();

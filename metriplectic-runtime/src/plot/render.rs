@@ -142,6 +142,11 @@ fn replace_atomically(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
     crate::io::write_file(path, bytes, crate::io::WriteMode::Overwrite).map_err(|error| match error
     {
         crate::Error::Io { path, source } => PlotError::Io { path, source },
+        // Its own reason, without a second "invalid …" in front.
+        crate::Error::InvalidArgument { reason, .. } => PlotError::InvalidArgument {
+            what: "figure path".to_owned(),
+            reason,
+        },
         other => PlotError::InvalidArgument {
             what: "figure path".to_owned(),
             reason: other.to_string(),
