@@ -384,6 +384,34 @@ fn synthesis_options(seed: u64) -> SynthesisOptions {
     }
 }
 
+/// Noise or outliers that overflow name their option (a probe's σ = 1e308
+/// gave "sample 3, state column 1: non-finite value -inf").
+#[test]
+fn synthesis_noise_that_overflows_names_the_option() {
+    let model = Model::<Linear2d>::reference().unwrap();
+    let noisy = SynthesisOptions {
+        noise: Noise {
+            state_std: 1e308,
+            derivative_std: 0.0,
+        },
+        ..synthesis_options(13)
+    };
+    let err = synthesize(&model, &noisy).unwrap_err().to_string();
+    assert!(
+        err.contains("state noise σ: 1e308 makes samples overflow"),
+        "{err}"
+    );
+    let wild = SynthesisOptions {
+        outliers: Some(Outliers {
+            fraction: 0.5,
+            magnitude: 1e308,
+        }),
+        ..synthesis_options(13)
+    };
+    let err = synthesize(&model, &wild).unwrap_err().to_string();
+    assert!(err.contains("outlier magnitude: 1e308"), "{err}");
+}
+
 #[test]
 fn synthesis_is_reproducible_by_seed_and_exact() {
     let model = Model::<Linear2d>::reference().unwrap();

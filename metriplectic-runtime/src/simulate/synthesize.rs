@@ -363,6 +363,15 @@ pub fn synthesize<S: MetriplecticSystem>(
                 *d += offsets.sample(&mut rng);
             }
         }
+        if derivatives.iter().any(|v| !v.is_finite()) {
+            return Err(invalid(
+                "outlier magnitude",
+                format!(
+                    "{:e} makes derivatives overflow to infinity; use a magnitude on the data's scale",
+                    outliers.magnitude
+                ),
+            ));
+        }
         train = Dataset::from_flat(n, train.states().to_vec(), derivatives)?;
     }
 
@@ -452,6 +461,18 @@ fn add_noise(data: Dataset, noise: &Noise, rng: &mut ChaCha8Rng) -> Result<Datas
             for v in values.iter_mut() {
                 *v += std * <StandardNormal as Distribution<f64>>::sample(&StandardNormal, rng);
             }
+        }
+    }
+    // Name the option, not only the sample it broke.
+    for (values, what, std) in [
+        (&states, "state noise σ", noise.state_std),
+        (&derivatives, "derivative noise σ", noise.derivative_std),
+    ] {
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(invalid(
+                what,
+                format!("{std:e} makes samples overflow to infinity; use a σ on the data's scale"),
+            ));
         }
     }
     Ok(Dataset::from_flat(data.dim(), states, derivatives)?)
