@@ -282,6 +282,20 @@ metriplectic! {
     region box(q in [-0.5, 0.5], p in [-1, 1]);
 }
 
+/// ψ of S = −(q² + p²): with H = (q² + p²)/2, E = −(q² + p²)/2, so the
+/// flow spirals in.
+fn spiral_entropy<S: MetriplecticSystem>() -> Vec<f64> {
+    let mut entropy = vec![0.0; S::entropy_coefficient_count()];
+    for square in [[2, 0], [0, 2]] {
+        let k = S::ENTROPY_EXPONENTS
+            .iter()
+            .position(|e| e == &square)
+            .unwrap();
+        entropy[k] = -1.0;
+    }
+    entropy
+}
+
 /// θ of K = diag(1 − c·q², 1).
 fn shrinking_metric<S: MetriplecticSystem>(c: f64) -> Vec<f64> {
     let basis = S::METRIC_EXPONENTS.len();
@@ -390,16 +404,11 @@ fn the_region_check_does_not_depend_on_the_metric_scale() {
 /// data centred far outside the ball came back with no warning).
 #[test]
 fn data_outside_an_on_region_certificate_are_a_warning() {
-    let exponent = |e: [u32; 2]| {
-        OnTheBoxOnly::ENTROPY_EXPONENTS
-            .iter()
-            .position(|x| x == &e)
-            .unwrap()
-    };
-    let mut entropy = vec![0.0; OnTheBoxOnly::entropy_coefficient_count()];
-    entropy[exponent([2, 0])] = -1.0;
-    entropy[exponent([0, 2])] = -1.0;
-    let truth = Model::<OnTheBoxOnly>::new(entropy, shrinking_metric::<OnTheBoxOnly>(1.0)).unwrap();
+    let truth = Model::<OnTheBoxOnly>::new(
+        spiral_entropy::<OnTheBoxOnly>(),
+        shrinking_metric::<OnTheBoxOnly>(1.0),
+    )
+    .unwrap();
     // 40 states in the box, 10 beyond it in q (where 1 − q² is still positive).
     let states: Vec<[f64; 2]> = (0..50)
         .map(|i| {
@@ -447,17 +456,12 @@ fn data_outside_an_on_region_certificate_are_a_warning() {
 /// violations and no word about the region).
 #[test]
 fn a_simulation_outside_an_on_region_certificate_says_so() {
-    let exponent = |e: [u32; 2]| {
-        OnTheBoxOnly::ENTROPY_EXPONENTS
-            .iter()
-            .position(|x| x == &e)
-            .unwrap()
-    };
-    let mut entropy = vec![0.0; OnTheBoxOnly::entropy_coefficient_count()];
-    entropy[exponent([2, 0])] = -1.0;
-    entropy[exponent([0, 2])] = -1.0;
     // E = −(q² + p²)/2: the flow spirals in, so a start in the box stays there.
-    let model = Model::<OnTheBoxOnly>::new(entropy, shrinking_metric::<OnTheBoxOnly>(1.0)).unwrap();
+    let model = Model::<OnTheBoxOnly>::new(
+        spiral_entropy::<OnTheBoxOnly>(),
+        shrinking_metric::<OnTheBoxOnly>(1.0),
+    )
+    .unwrap();
     let options = SimulationOptions::default();
     let inside = simulate(&model, &[0.3, 0.0], 0.0, 5.0, &options).unwrap();
     assert_eq!(inside.outside_region, None);
@@ -479,9 +483,7 @@ fn a_simulation_outside_an_on_region_certificate_says_so() {
         })
     );
     // The default mode proves K ⪰ 0 everywhere: nothing to report.
-    let mut entropy = vec![0.0; Everywhere::entropy_coefficient_count()];
-    entropy[exponent([2, 0])] = -1.0;
-    entropy[exponent([0, 2])] = -1.0;
+    let entropy = spiral_entropy::<Everywhere>();
     let metric = {
         let mut theta = vec![0.0; Everywhere::metric_coefficient_count()];
         theta[0] = 1.0;
