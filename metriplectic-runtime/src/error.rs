@@ -458,7 +458,7 @@ pub enum SimulationError {
     /// ([`Method::DiscreteGradient`](crate::Method::DiscreteGradient)) was
     /// not solved to rounding: its iteration diverged, or stalled above a
     /// few ulps of the state.
-    #[error("discrete-gradient step {step} from t = {} with step size {} did not converge: the last update of its implicit equation was {update:e} after {iterations} iterations, above rounding (take a smaller step)", Num(*.t), Num(*.h))]
+    #[error("discrete-gradient step {step} from t = {} with step size {} did not converge: the last update (or residual) of its implicit equation was {update:e} after {iterations} iterations, above rounding (take a smaller step)", Num(*.t), Num(*.h))]
     StepNotConverged {
         /// Index of the step (0 for the first).
         step: usize,
@@ -466,7 +466,9 @@ pub enum SimulationError {
         t: f64,
         /// Its step size.
         h: f64,
-        /// Norm of the last update of the iteration (may be non-finite).
+        /// Norm of the last update of the iteration (may be non-finite), or
+        /// of the residual ‖Φ(x′) − x′‖ when the update was small only
+        /// through a Jacobian taken elsewhere.
         update: f64,
         /// Iterations done.
         iterations: u32,

@@ -110,19 +110,23 @@ pub fn write_file(path: &Path, bytes: &[u8], mode: WriteMode) -> Result<()> {
     let (path, existing) = match (mode, std::fs::symlink_metadata(path)) {
         (WriteMode::Overwrite, Ok(meta)) => {
             let path = if meta.file_type().is_symlink() {
-                resolved = std::fs::canonicalize(path).map_err(io(path))?;
+                resolved = link_target(path).map_err(io(path))?;
                 resolved.as_path()
             } else {
                 path
             };
-            let meta = std::fs::metadata(path).map_err(io(path))?;
-            if meta.permissions().readonly() {
-                return Err(io(path)(std::io::Error::new(
-                    std::io::ErrorKind::PermissionDenied,
-                    "the file is read-only; refusing to replace it (make it writable to overwrite it)",
-                )));
+            match std::fs::metadata(path) {
+                // A dangling link: its target is created.
+                Err(error) if error.kind() == std::io::ErrorKind::NotFound => (path, None),
+                Err(error) => return Err(io(path)(error)),
+                Ok(meta) if meta.permissions().readonly() => {
+                    return Err(io(path)(std::io::Error::new(
+                        std::io::ErrorKind::PermissionDenied,
+                        "the file is read-only; refusing to replace it (make it writable to overwrite it)",
+                    )))
+                }
+                Ok(meta) => (path, Some(meta.permissions())),
             }
-            (path, Some(meta.permissions()))
         }
         _ => (path, None),
     };
@@ -171,6 +175,24 @@ pub fn write_file(path: &Path, bytes: &[u8], mode: WriteMode) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The file the symbolic link `path` points to, through any chain of links,
+/// whether or not it exists yet.
+fn link_target(path: &Path) -> std::io::Result<PathBuf> {
+    let mut current = path.to_path_buf();
+    // Bounded like the kernel's own loop limit.
+    for _ in 0..40 {
+        if !std::fs::symlink_metadata(&current).is_ok_and(|m| m.file_type().is_symlink()) {
+            return Ok(current);
+        }
+        let target = std::fs::read_link(&current)?;
+        current = match current.parent() {
+            Some(parent) if target.is_relative() => parent.join(target),
+            _ => target,
+        };
+    }
+    Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
 /// A fresh temporary name next to `path`: hidden, with the process id and
@@ -260,6 +282,13 @@ mod tests {
             .file_type()
             .is_symlink());
         assert_eq!(std::fs::read(&path).unwrap(), b"through the link");
+
+        // A dangling link: the file it names is created.
+        let dangling = dir.join("dangling.json");
+        let _ = std::fs::remove_file(&dangling);
+        symlink(dir.join("new.json"), &dangling).unwrap();
+        write_file(&dangling, b"new", WriteMode::Overwrite).unwrap();
+        assert_eq!(std::fs::read(dir.join("new.json")).unwrap(), b"new");
 
         std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
         let error = write_file(&path, b"third", WriteMode::Overwrite).unwrap_err();

@@ -203,7 +203,7 @@ impl Context<'_> {
                 _ => "",
             };
             FromCsvError::Option(format!(
-                "{}: the training trajectories give no identification data with the {}: {source}{hint}",
+                "{}: the training trajectories cannot be used with the {}: {source}{hint}",
                 path.display(),
                 method.describe()
             ))

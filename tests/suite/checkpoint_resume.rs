@@ -322,6 +322,11 @@ fn a_checkpoint_never_overwrites_a_file_that_is_not_one() {
     assert!(identify::<Linear2d>(&data, &with(&model)).is_err());
     assert_eq!(std::fs::read(&model).unwrap(), saved);
     assert!(identify::<Linear2d>(&data, &with(&dir)).is_err());
+    // An empty file made in advance is no one's data.
+    let empty = dir.join("made_in_advance.json");
+    std::fs::write(&empty, "").unwrap();
+    identify::<Linear2d>(&data, &with(&empty)).unwrap();
+    assert!(std::fs::metadata(&empty).unwrap().len() > 0);
 
     let checkpoint = dir.join("checkpoint.json");
     identify::<Linear2d>(&data, &with(&checkpoint)).unwrap();

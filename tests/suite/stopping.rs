@@ -6,8 +6,8 @@
 use metriplectic::experiments;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    synthesize, History, IterationRecord, Noise, Outliers, SampleTimes, StopReason,
-    SynthesisOptions,
+    synthesize, History, IdentifyWarning, IterationRecord, Noise, Outliers, SampleTimes,
+    StopReason, SynthesisOptions,
 };
 
 use crate::common::Linear2d;
@@ -123,4 +123,14 @@ fn gross_outliers_stop_by_stagnation_after_the_l1_fit_recovers_the_field() {
     let error = run_stops_by_itself(&train, &held_out, "10% gross outliers");
     // The L1 fit ignores the outliers: the clean field is recovered.
     assert!(error < 1e-6, "held-out error {error:e}");
+    // …and is not called poor for the outliers it ignores (their L2 share
+    // of the residual is 0.95).
+    let fit = identify::<Linear2d>(&train, &IdentifyConfig::default()).unwrap();
+    assert!(
+        !fit.warnings
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::PoorFit { .. })),
+        "{:?}",
+        fit.warnings
+    );
 }

@@ -646,7 +646,9 @@ fn a_gauge_the_data_do_not_need_and_a_fit_that_explains_nothing_are_warnings() {
         IdentifyWarning::PoorFit { relative_residual } => Some(*relative_residual),
         _ => None,
     });
-    assert!(poor.is_some_and(|r| r > 0.9), "{:?}", fit.warnings);
+    // The median residual against the median target: 0.78 measured (an
+    // L1 fit zeroes some residuals exactly), well above the 0.5 that warns.
+    assert!(poor.is_some_and(|r| r > 0.7), "{:?}", fit.warnings);
     assert!(
         !fit.warnings
             .iter()

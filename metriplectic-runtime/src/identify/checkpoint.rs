@@ -76,13 +76,23 @@ impl CheckpointConfig {
         if self.path.is_dir() {
             return Err(invalid(format!("{} is a directory", self.path.display())));
         }
-        if std::fs::symlink_metadata(&self.path).is_ok() && !is_checkpoint(&self.path) {
-            return Err(invalid(format!(
-                "{} exists and is not a checkpoint (it starts with {:?}); \
-                 choose another path or move that file",
-                self.path.display(),
-                file_start(&self.path)
-            )));
+        if let Ok(meta) = std::fs::metadata(&self.path) {
+            // An empty file (made in advance, e.g. by mktemp) holds nothing.
+            if meta.len() > 0 && !is_checkpoint(&self.path) {
+                return Err(invalid(format!(
+                    "{} exists and is not a checkpoint (it starts with {:?}); \
+                     choose another path or move that file",
+                    self.path.display(),
+                    file_start(&self.path)
+                )));
+            }
+            // Saving would fail only after the first iterations.
+            if meta.permissions().readonly() {
+                return Err(invalid(format!(
+                    "{} is read-only, so no checkpoint could be saved there",
+                    self.path.display()
+                )));
+            }
         }
         Ok(())
     }
@@ -242,7 +252,7 @@ pub(crate) fn save<S: MetriplecticSystem>(
             .best
             .as_ref()
             .and_then(|(model, _)| model.certificate().cloned()),
-        known_parts: Some(KnownParts::of::<S>()),
+        known_parts: KnownParts::of::<S>(),
     };
     let json = serde_json::to_string(&file).map_err(|source| Error::Json {
         context: Some(path.display().to_string()),

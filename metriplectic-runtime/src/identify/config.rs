@@ -275,7 +275,7 @@ impl IdentifyConfig {
                 format!(
                     "{} is not in [0, 1): it is relative to the data's mean |ẋ|, and 1 or \
                      more would accept any model",
-                    self.tolerance
+                    crate::error::Num(self.tolerance)
                 ),
             ));
         }

@@ -134,13 +134,15 @@ pub enum IdentifyWarning {
         /// Distinct data states.
         states: usize,
     },
-    /// The model explains little of the data: the relative residual
-    /// ‖prediction − target‖ / ‖target‖ of its fit is at least 0.5 (0 is
-    /// exact, 1 no better than predicting zero). The data may not come
-    /// from the declared system, be mostly noise, or need what the basis,
-    /// the support or a gauge exclude.
+    /// The model explains little of the data: the typical relative
+    /// residual of its fit, median |prediction − target| / median |target|
+    /// over the equations' components, is at least 0.5 (0 is exact, 1 no
+    /// better than predicting zero; medians, so that outliers the L1 fit
+    /// ignores do not count). The data may not come from the declared
+    /// system, be mostly noise, or need what the basis, the support or a
+    /// gauge exclude.
     PoorFit {
-        /// The fit's relative residual on the data.
+        /// The fit's typical relative residual on the data.
         relative_residual: f64,
     },
     /// A [`Gauge`](crate::Gauge) fixes the scale of K, but the data
@@ -211,7 +213,7 @@ impl std::fmt::Display for IdentifyWarning {
             ),
             Self::PoorFit { relative_residual } => write!(
                 f,
-                "the model explains little of the data: its relative residual is \
+                "the model explains little of the data: its typical relative residual is \
                  {relative_residual:.3} (0 is exact, 1 no better than predicting zero); the data \
                  may not come from this system or be mostly noise, or the model they need lies \
                  outside the basis, the support or the gauge"
@@ -391,10 +393,13 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         }
     }
     let misfit = relative_residual(data, &entropy, psi);
-    if misfit >= POOR_FIT {
+    // Judged by medians, as the L1 fit is: outliers the fit rightly ignores
+    // leave large residuals that say nothing about the rest.
+    let typical = typical_relative_residual(data, &entropy, psi);
+    if typical >= POOR_FIT {
         // A fit this poor says nothing about symmetries of the data.
         warnings.push(IdentifyWarning::PoorFit {
-            relative_residual: misfit,
+            relative_residual: typical,
         });
         return Ok(warnings);
     }
@@ -418,9 +423,35 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     Ok(warnings)
 }
 
-/// A fit with at least this relative residual explains little of its data
-/// ([`IdentifyWarning::PoorFit`]).
+/// A fit with at least this typical relative residual explains little of
+/// its data ([`IdentifyWarning::PoorFit`]).
 const POOR_FIT: f64 = 0.5;
+
+/// median |r| / median |y| over the equations' components of the entropy
+/// regression `entropy` at `psi`: how well the fit explains a typical
+/// target, unmoved by a minority of outliers; 0 when the median target is
+/// 0 (a fit to data mostly at rest).
+fn typical_relative_residual(
+    data: &impl IdentificationData,
+    entropy: &Regression,
+    psi: &[f64],
+) -> f64 {
+    let median = |mut values: Vec<f64>| -> f64 {
+        if values.is_empty() {
+            return 0.0;
+        }
+        let middle = values.len() / 2;
+        *values.select_nth_unstable_by(middle, f64::total_cmp).1
+    };
+    let targets: Vec<f64> = data.equations().targets.iter().map(|y| y.abs()).collect();
+    let residuals: Vec<f64> = entropy.residuals(psi).iter().map(|r| r.abs()).collect();
+    let typical_target = median(targets);
+    if typical_target > 0.0 {
+        median(residuals) / typical_target
+    } else {
+        0.0
+    }
+}
 
 /// ‖r‖ / ‖y‖ of the entropy regression `entropy` at `psi`: the fit's
 /// residual against its targets (weak-form equations are integrals); 0 for

@@ -186,7 +186,7 @@ impl<S: MetriplecticSystem> Model<S> {
             entropy: self.entropy_coefficients().to_vec(),
             metric: self.metric_coefficients().to_vec(),
             certificate: self.certificate().cloned(),
-            known_parts: Some(KnownParts::of::<S>()),
+            known_parts: KnownParts::of::<S>(),
             ..ModelFile::header_of::<S>()
         };
         serde_json::to_string_pretty(&file).map_err(|source| Error::Json {

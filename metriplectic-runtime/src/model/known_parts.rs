@@ -28,8 +28,16 @@ pub(crate) struct KnownParts {
 impl KnownParts {
     /// H and Π of `S` at fixed, irregular states in [−1.5, 1.5]ⁿ (no two
     /// coordinates equal, none zero, so that different polynomials of low
-    /// degree differ there).
-    pub(crate) fn of<S: MetriplecticSystem>() -> Self {
+    /// degree differ there); `None` if a value there is not finite (a
+    /// hand-written system may have a singularity; JSON has no NaN).
+    pub(crate) fn of<S: MetriplecticSystem>() -> Option<Self> {
+        let parts = Self::sampled::<S>();
+        let finite = parts.hamiltonian.iter().all(|h| h.is_finite())
+            && parts.poisson.iter().flatten().all(|p| p.is_finite());
+        finite.then_some(parts)
+    }
+
+    fn sampled<S: MetriplecticSystem>() -> Self {
         let states: Vec<Vec<f64>> = (0..STATES)
             .map(|k| {
                 (0..S::DIM)
@@ -111,7 +119,7 @@ mod tests {
 
     #[test]
     fn a_system_agrees_with_its_own_record_and_an_edited_one_is_named() {
-        let own = KnownParts::of::<Quadratic2d>();
+        let own = KnownParts::of::<Quadratic2d>().unwrap();
         assert_eq!(own.difference::<Quadratic2d>(), None);
         // The states are distinct and away from zero.
         assert!(own.states.iter().flatten().all(|v| v.abs() > 0.05));

@@ -565,6 +565,11 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
         if self.newton.as_ref().is_some_and(|newton| newton.step != h) {
             self.refactor(h);
         }
+        // Φ depends on x: a Jacobian kept from the previous step was taken
+        // for another equation, whatever iterate it was taken at.
+        if let Some(newton) = self.newton.as_mut() {
+            newton.at.fill(f64::NAN);
+        }
         // The iterate with the smallest update so far.
         let mut best: Option<(f64, Solved)> = None;
         let mut previous = f64::INFINITY;
@@ -629,6 +634,8 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
                 // accepted a residual of 6e16 this way, and E fell by 1e20).
                 // Only a Jacobian at this iterate can say it is a solution.
                 if jacobians >= self.max_jacobians {
+                    // Report what is wrong: the residual, not the update.
+                    update = solved.residual;
                     break;
                 }
                 self.jacobian(x, at_x, h, y, stats);

@@ -160,12 +160,16 @@ impl Regression {
 
     /// ‖t − A c‖₂: the residual's Euclidean norm at coefficients `c`.
     pub(crate) fn l2_residual(&self, c: &[f64]) -> f64 {
+        self.residuals(c).iter().map(|r| r * r).sum::<f64>().sqrt()
+    }
+
+    /// t − A c, row by row, at coefficients `c`.
+    pub(crate) fn residuals(&self, c: &[f64]) -> Vec<f64> {
         self.rows
             .chunks_exact(self.width.max(1))
             .zip(&self.target)
-            .map(|(row, t)| (t - row.iter().zip(c).map(|(a, x)| a * x).sum::<f64>()).powi(2))
-            .sum::<f64>()
-            .sqrt()
+            .map(|(row, t)| t - row.iter().zip(c).map(|(a, x)| a * x).sum::<f64>())
+            .collect()
     }
 
     /// [`l1_residual`](Self::l1_residual) over the first `rows` rows only.
