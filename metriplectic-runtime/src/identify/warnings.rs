@@ -135,10 +135,10 @@ pub enum IdentifyWarning {
         states: usize,
     },
     /// The model explains little of the data: the typical relative
-    /// residual of its fit, median |prediction − target| / median |target|
-    /// over the equations' components, is at least 0.5 (0 is exact, 1 no
-    /// better than predicting zero; medians, so that outliers the L1 fit
-    /// ignores do not count). The data may not come from the declared
+    /// residual of its fit, median |prediction − target| over the
+    /// equations' components against their mean |target|, is at least 0.5
+    /// (0 is exact; a median, so that outliers the L1 fit ignores do not
+    /// count). The data may not come from the declared
     /// system, be mostly noise, or need what the basis, the support or a
     /// gauge exclude.
     PoorFit {
@@ -213,8 +213,8 @@ impl std::fmt::Display for IdentifyWarning {
             ),
             Self::PoorFit { relative_residual } => write!(
                 f,
-                "the model explains little of the data: its typical relative residual is \
-                 {relative_residual:.3} (0 is exact, 1 no better than predicting zero); the data \
+                "the model explains little of the data: its typical residual is \
+                 {relative_residual:.3} of the data's mean |ẋ| (0 is exact); the data \
                  may not come from this system or be mostly noise, or the model they need lies \
                  outside the basis, the support or the gauge"
             ),
@@ -427,30 +427,23 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
 /// its data ([`IdentifyWarning::PoorFit`]).
 const POOR_FIT: f64 = 0.5;
 
-/// median |r| / median |y| over the equations' components of the entropy
-/// regression `entropy` at `psi`: how well the fit explains a typical
-/// target, unmoved by a minority of outliers; 0 when the median target is
-/// 0 (a fit to data mostly at rest).
+/// The median |r| of the entropy regression `entropy` at `psi` over the
+/// equations' components, against the data's scale (their mean |y|, 1 if
+/// all are zero): how well the fit explains a typical target, unmoved by a
+/// minority of outliers the L1 fit ignores, and by components that never
+/// move (a median of the targets would fall to them).
 fn typical_relative_residual(
     data: &impl IdentificationData,
     entropy: &Regression,
     psi: &[f64],
 ) -> f64 {
-    let median = |mut values: Vec<f64>| -> f64 {
-        if values.is_empty() {
-            return 0.0;
-        }
-        let middle = values.len() / 2;
-        *values.select_nth_unstable_by(middle, f64::total_cmp).1
-    };
-    let targets: Vec<f64> = data.equations().targets.iter().map(|y| y.abs()).collect();
-    let residuals: Vec<f64> = entropy.residuals(psi).iter().map(|r| r.abs()).collect();
-    let typical_target = median(targets);
-    if typical_target > 0.0 {
-        median(residuals) / typical_target
-    } else {
-        0.0
+    let mut residuals: Vec<f64> = entropy.residuals(psi).iter().map(|r| r.abs()).collect();
+    if residuals.is_empty() {
+        return 0.0;
     }
+    let middle = residuals.len() / 2;
+    let median = *residuals.select_nth_unstable_by(middle, f64::total_cmp).1;
+    median / data.equations().scale()
 }
 
 /// ‖r‖ / ‖y‖ of the entropy regression `entropy` at `psi`: the fit's
