@@ -64,6 +64,19 @@ fn the_2d_paper_system_and_the_drag_body_are_identifiable() {
     assert!(report.is_identifiable(), "{report}");
     assert!(!report.scale_symmetry);
     assert!(report.to_string().starts_with("identifiable"), "{report}");
+    // A tolerance near 1 counts the scale direction as undetermined, but
+    // Π∇E ≠ 0 here: it is not the scale symmetry.
+    let loose = IdentifiabilityOptions {
+        tolerance: 0.999,
+        ..IdentifiabilityOptions::default()
+    };
+    let report = identifiability(&truth, &data, &loose).unwrap();
+    assert!(!report.scale_symmetry, "{report}");
+    assert!(report
+        .flat_directions
+        .iter()
+        .all(|d| d.kind != FlatKind::ScaleSymmetry));
+    assert!(!report.flat_directions.is_empty(), "{report}");
 
     // A state-dependent metric certified on a region: all metric
     // coefficients free, and Π∇E ≠ 0 removes the scale family.

@@ -35,6 +35,10 @@ use crate::solve::linalg::{least_squares, triangular_factor_by_blocks};
 use crate::solve::Regression;
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
+/// The largest relative stretch of the scale direction that still counts as
+/// the exact scale symmetry, whatever the options' tolerance.
+const EXACT_SYMMETRY: f64 = 1e-6;
+
 /// Options of [`identifiability`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -115,8 +119,9 @@ pub struct Identifiability {
     /// relative to the largest.
     pub singular_values: Vec<f64>,
     /// Whether Π∇E = 0 on the data, so that (cK, E/c) fits as well as
-    /// (K, E) (relative size of Π∇E against (Π + K)∇E below the tolerance);
-    /// for a classical system, whether (cK, S/c) does.
+    /// (K, E) (relative size of Π∇E against (Π + K)∇E below the tolerance
+    /// and below 1e-6 whatever the tolerance); for a classical system,
+    /// whether (cK, S/c) does.
     pub scale_symmetry: bool,
     /// Whether the options' gauge removes the scale symmetry.
     pub gauge_fixed: bool,
@@ -401,9 +406,11 @@ pub fn identifiability<S: MetriplecticSystem>(
         }
         sum.sqrt() / top
     };
+    // A loose tolerance counts more directions as undetermined; it does not
+    // make Π∇E zero, which the scale symmetry needs.
     let scale_symmetry = scale_direction
         .as_ref()
-        .is_some_and(|u| stretch(u) <= options.tolerance);
+        .is_some_and(|u| stretch(u) <= options.tolerance.min(EXACT_SYMMETRY));
 
     // The null space in scaled coordinates: B times the trailing columns of V.
     let null: Vec<Vec<f64>> = (rank..width)
