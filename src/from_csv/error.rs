@@ -14,9 +14,9 @@ pub enum FromCsvError {
     /// A file exists where an output goes and `--overwrite` was not given.
     #[error("{0} appeared while the run was going; refusing to replace it without --overwrite")]
     OutputExists(PathBuf),
-    /// The input CSV has the name of an output in the output directory, and
-    /// `--overwrite` would replace it.
-    #[error("{0} is the input and also a file this run writes into --out; with --overwrite it would be replaced: choose another --out or move the input")]
+    /// The input CSV has the name of an output in the output directory, or
+    /// such a name there links to it, and `--overwrite` would replace it.
+    #[error("{0} is a file this run writes into --out, and it is the input CSV (or a link to it); with --overwrite the input would be replaced: choose another --out or move the input")]
     InputIsAnOutput(PathBuf),
     /// The CSV's columns are not the chosen system's.
     #[error("{path}: the columns do not match the state ({state}) of system `{system}`: {detail}\nsystems this example knows: {known}")]

@@ -41,8 +41,9 @@ fn is_output_name(name: &std::ffi::OsStr) -> bool {
         || Path::new(name).extension().is_some_and(|e| e == "png")
 }
 
-/// Refuses `--overwrite` when the input CSV is in the output directory under
-/// a name the run writes: it would be replaced by an output.
+/// Refuses `--overwrite` when the input CSV would be replaced by an output:
+/// it is in the output directory under a name the run writes, or such a name
+/// there is a symbolic link to it (outputs are written through links).
 pub(super) fn check_input_is_not_an_output(
     data: &Path,
     out: &Path,
@@ -52,13 +53,25 @@ pub(super) fn check_input_is_not_an_output(
         // No output directory yet, or no input (the reader says so).
         return Ok(());
     };
-    let inside = data.parent() == Some(out.as_path());
-    match data.file_name() {
-        Some(name) if overwrite && inside && is_output_name(name) => {
-            Err(FromCsvError::InputIsAnOutput(data))
-        }
-        _ => Ok(()),
+    if !overwrite {
+        // Nothing existing is replaced.
+        return Ok(());
     }
+    if data.parent() == Some(out.as_path()) && data.file_name().is_some_and(is_output_name) {
+        return Err(FromCsvError::InputIsAnOutput(data));
+    }
+    let entries = fs::read_dir(&out).map_err(io_error(&out))?;
+    for entry in entries {
+        let entry = entry.map_err(io_error(&out))?;
+        let linked = entry.file_type().is_ok_and(|kind| kind.is_symlink());
+        if linked
+            && is_output_name(&entry.file_name())
+            && fs::canonicalize(entry.path()).is_ok_and(|target| target == data)
+        {
+            return Err(FromCsvError::InputIsAnOutput(entry.path()));
+        }
+    }
+    Ok(())
 }
 
 impl Context<'_> {

@@ -404,12 +404,27 @@ fn a_non_empty_output_directory_is_refused_and_its_files_kept() {
     let data = std::fs::read(&input).unwrap();
     let err = run(&Options {
         data: input.clone(),
-        ..options
+        ..options.clone()
     })
     .unwrap_err();
     assert!(matches!(err, FromCsvError::InputIsAnOutput(_)), "{err:?}");
     assert!(err.to_string().contains("choose another --out"), "{err}");
     assert_eq!(std::fs::read(&input).unwrap(), data);
+
+    // Nor through a link named like an output: outputs are written through
+    // links, so `summary.json -> ../keep.csv` would replace the input.
+    #[cfg(unix)]
+    {
+        std::fs::remove_file(&input).unwrap();
+        let link = out.join("summary.json");
+        std::fs::remove_file(&link).unwrap();
+        std::os::unix::fs::symlink(std::fs::canonicalize(&csv).unwrap(), &link).unwrap();
+        let data = std::fs::read(&csv).unwrap();
+        let err = run(&options).unwrap_err();
+        assert!(matches!(err, FromCsvError::InputIsAnOutput(_)), "{err:?}");
+        assert!(err.to_string().contains("link to it"), "{err}");
+        assert_eq!(std::fs::read(&csv).unwrap(), data);
+    }
 }
 
 #[test]
