@@ -30,8 +30,10 @@ use crate::solve::svec::{smat, svec_diagonal, svec_index, svec_len, SQRT_2};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression, SolveStatus, SolverSettings};
 use crate::system::{metric_pair_index, CertificateMode, MetriplecticSystem, RegionCertificate};
 
-/// Relative tolerance of a constant block's smallest eigenvalue: rounding
-/// in a metric search's Gram matrix is ~1e-16 of its scale.
+/// Relative tolerance of a constant block's smallest eigenvalue (after
+/// Jacobi scaling, see `check_constant_block`) and of the witnesses of
+/// state-dependent ones: rounding in a metric search's Gram matrix is ~1e-16
+/// of its scale.
 const EIGENVALUE_TOLERANCE: f64 = 1e-10;
 /// Relative tolerance of the certificate program's optimum |s| (the program
 /// itself runs at the far tighter `certificate_settings`).
@@ -225,15 +227,50 @@ fn embed(n: usize, block: &[usize], local: &[f64]) -> Vec<f64> {
     full
 }
 
+/// A constant block passes when its Jacobi-scaled form D^-½ K D^-½ has no
+/// eigenvalue below −[`EIGENVALUE_TOLERANCE`], D_i = max(K_ii, 0) plus that
+/// tolerance times the block's largest entry. The tolerance is then per
+/// direction: a large entry elsewhere cannot hide a negative one (a probe's
+/// K = [[1e15, 1e-300], [1e-300, −1e5]] loaded while the tolerance was
+/// relative to the largest entry, and E fell at 1e5·|∇E|² along the second
+/// axis), and the floor keeps rows at rounding level (K_ii ≈ 0) from
+/// counting as negative. The scaling is a congruence, so K itself has a
+/// negative eigenvalue whenever the scaled form does: that one is reported.
 fn check_constant_block<S: MetriplecticSystem>(
     what: &str,
     theta: &[f64],
     block: &[usize],
 ) -> Result<()> {
     let k0 = constant_block::<S>(theta, block);
-    let spread = k0.amax();
-    let (eigenvalue, direction) = smallest_eigen(k0);
-    if eigenvalue.is_nan() || eigenvalue < -EIGENVALUE_TOLERANCE * spread {
+    let floor = EIGENVALUE_TOLERANCE * k0.amax();
+    let size = k0.nrows();
+    let root: Vec<f64> = (0..size)
+        .map(|i| (k0[(i, i)].max(0.0) + floor).sqrt())
+        .collect();
+    let scaled = DMatrix::from_fn(size, size, |a, b| {
+        if floor == 0.0 {
+            // An all-zero block.
+            0.0
+        } else {
+            k0[(a, b)] / (root[a] * root[b])
+        }
+    });
+    let (scaled_eigenvalue, u) = smallest_eigen(scaled);
+    if scaled_eigenvalue.is_nan() || scaled_eigenvalue < -EIGENVALUE_TOLERANCE {
+        // K's own eigensolve loses entries below its rounding (−1e-3 next
+        // to 1e15 comes back as 0): take the scaled direction back, D^-½ u,
+        // and its Rayleigh quotient, unless K's smallest eigenvalue is lower.
+        let mut v: Vec<f64> = u.iter().zip(&root).map(|(u, r)| u / r).collect();
+        let length = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        v.iter_mut().for_each(|x| *x /= length);
+        let quotient: f64 = (0..size)
+            .flat_map(|a| (0..size).map(move |b| (a, b)))
+            .map(|(a, b)| v[a] * k0[(a, b)] * v[b])
+            .sum();
+        let (eigenvalue, direction) = match smallest_eigen(k0) {
+            (value, vector) if value <= quotient => (value, vector),
+            _ => (quotient, v),
+        };
         return Err(Error::MetricNotPositive {
             what: what.to_owned(),
             eigenvalue,
@@ -795,5 +832,34 @@ mod tests {
             check_metric::<Quadratic2d>("test", &t),
             Err(Error::MetricNotPositive { .. })
         ));
+    }
+
+    /// The tolerance of a constant metric is per direction: a large entry
+    /// coupled to a negative one (even by 1e-300) does not hide it, while
+    /// singular metrics and rows at rounding level still pass.
+    #[test]
+    fn a_large_entry_does_not_hide_a_negative_one() {
+        for negative in [-1e5, -1.0, -1e-3] {
+            let t = theta(&[(0, 1e15), (6, 1e-300), (12, negative)]);
+            let err = check_metric::<Quadratic2d>("test", &t).unwrap_err();
+            assert!(
+                matches!(err, Error::MetricNotPositive { eigenvalue, state: None, .. }
+                    if eigenvalue < 0.0),
+                "{negative}: {err}"
+            );
+        }
+        // [[1, 1e-6], [1e-6, −1e-12]]: eigenvalue −2e-12, 2e-12 of the
+        // largest entry but all of the second axis's own scale.
+        let t = theta(&[(0, 1.0), (6, 1e-6), (12, -1e-12)]);
+        assert!(check_metric::<Quadratic2d>("test", &t).is_err());
+        // Singular, PSD: v vᵀ with v = (1, 1e-8), and diag(0, 1).
+        let t = theta(&[(0, 1.0), (6, 1e-8), (12, 1e-16)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
+        let t = theta(&[(12, 1.0)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
+        // A zero row coupled to a large one at rounding level stays
+        // acceptable (eigenvalue −1e-30).
+        let t = theta(&[(6, 1e-15), (12, 1.0)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
     }
 }
