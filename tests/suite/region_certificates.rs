@@ -9,7 +9,7 @@ use metriplectic::systems::{reference_samples, DragDuffing, DragRigidBody};
 use crate::common::exact_dataset;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    metric_search, simulate, CertificateMode, IdentifyConfig, IdentifyWarning, OutsideRegion,
+    metric_search, simulate, CertificateMode, IdentifyConfig, IdentifyWarning, Method, OutputTimes,
     Region, SearchOptions, SimulationOptions, SolveStatus, SolverBackend, SolverSettings,
 };
 use nalgebra::DMatrix;
@@ -475,13 +475,43 @@ fn a_simulation_outside_an_on_region_certificate_says_so() {
         .filter(|x| x[0].abs() > 0.5 || x[1].abs() > 1.0)
         .count();
     assert!(count > 0 && count < outside.trajectory.len());
-    assert_eq!(
-        outside.outside_region,
-        Some(OutsideRegion {
-            outputs: count,
-            first: 0
-        })
-    );
+    let reported = outside.outside_region.unwrap();
+    assert_eq!(reported.outputs, count);
+    assert_eq!(reported.first_time, 0.0);
+    assert!(reported.steps > 0 && reported.steps < outside.stats.accepted_steps as usize);
+    // Outputs only at the ends, both inside: from (−0.49, 0.99) the spiral
+    // swings out to |q| ≈ 0.63 between them, and the report says so (a probe's run reported
+    // nothing while E fell between its two outputs).
+    let ends = SimulationOptions {
+        output: OutputTimes::Times(vec![0.0, 20.0]),
+        ..SimulationOptions::default()
+    };
+    for method in [Method::Dopri5, Method::DiscreteGradient { step: 0.05 }] {
+        let run = simulate(
+            &model,
+            &[-0.49, 0.99],
+            0.0,
+            20.0,
+            &SimulationOptions {
+                method,
+                ..ends.clone()
+            },
+        )
+        .unwrap();
+        let x = run.trajectory.states();
+        assert!(x
+            .chunks_exact(2)
+            .all(|x| x[0].abs() <= 0.5 && x[1].abs() <= 1.0));
+        let reported = run
+            .outside_region
+            .unwrap_or_else(|| panic!("{method:?}: nothing reported"));
+        assert_eq!(reported.outputs, 0, "{method:?}");
+        assert!(reported.steps > 0, "{method:?}");
+        assert!(
+            reported.first_time > 0.0 && reported.first_time < 20.0,
+            "{method:?}"
+        );
+    }
     // The default mode proves K ⪰ 0 everywhere: nothing to report.
     let entropy = spiral_entropy::<Everywhere>();
     let metric = {

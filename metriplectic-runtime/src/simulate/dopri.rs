@@ -111,6 +111,11 @@ pub struct Integration {
     pub times: Vec<f64>,
     /// States at the output times, row-major.
     pub states: Vec<f64>,
+    /// The end time of every accepted step, in order (the last is t_end).
+    pub step_times: Vec<f64>,
+    /// The state at the end of every accepted step, row-major: the
+    /// trajectory between the outputs, as far as the integrator saw it.
+    pub step_states: Vec<f64>,
     /// Integrator statistics.
     pub stats: IntegrationStats,
 }
@@ -229,6 +234,8 @@ where
     Ok(Integration {
         times,
         states,
+        step_times: steps_t.iter().map(|tau| t0 + tau).collect(),
+        step_states: steps_x.iter().flat_map(|y| y.iter().copied()).collect(),
         stats,
     })
 }

@@ -132,39 +132,56 @@ impl EnergyCheck {
     }
 }
 
-/// Outputs of a simulation outside the region of the system's on-region
-/// metric certificate ([`CertificateMode::OnRegion`]): there K ⪰ 0, and so
+/// Where a simulation left the region of the system's on-region metric
+/// certificate ([`CertificateMode::OnRegion`]): there K ⪰ 0, and so
 /// dE/dt ≥ 0, is not certified, and the free energy may fall without any
-/// error of the integrator.
+/// error of the integrator. The integrator's steps are counted as well as
+/// the outputs: outputs far apart can all lie inside while the trajectory
+/// between them does not.
 ///
 /// ```
 /// use metriplectic_runtime::OutsideRegion;
 ///
-/// let outside = OutsideRegion { outputs: 3, first: 7 };
-/// assert_eq!(outside.first, 7);
+/// let outside = OutsideRegion { outputs: 0, steps: 12, first_time: 3.5 };
+/// assert!(outside.outputs == 0 && outside.steps > 0);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OutsideRegion {
-    /// How many outputs lie outside the region (at least 1).
+    /// How many outputs lie outside the region (0 when only the trajectory
+    /// between outputs left it).
     pub outputs: usize,
-    /// The index of the first output outside it.
-    pub first: usize,
+    /// How many of the integrator's steps ended outside it (DOPRI5's
+    /// accepted steps; every discrete-gradient step).
+    pub steps: usize,
+    /// The earliest time at which an output or a step's end lay outside.
+    pub first_time: f64,
 }
 
-/// Which of `states` (row-major) lie outside the region of `S`'s on-region
-/// certificate; `None` if all lie inside, or if the system's certificate
-/// (if any) bounds K from below everywhere.
-pub(super) fn outside_region<S: MetriplecticSystem>(states: &[f64]) -> Option<OutsideRegion> {
+/// Where the outputs and the step ends, each `(times, states row-major)`,
+/// lie outside the region of `S`'s on-region certificate; `None` if all
+/// lie inside, or if the system's certificate (if any) bounds K from below
+/// everywhere.
+pub(super) fn outside_region<S: MetriplecticSystem>(
+    outputs: (&[f64], &[f64]),
+    steps: (&[f64], &[f64]),
+) -> Option<OutsideRegion> {
     let certificate = S::REGION_CERTIFICATE.filter(|c| c.mode == CertificateMode::OnRegion)?;
-    let mut outside = states
-        .chunks_exact(S::DIM)
-        .enumerate()
-        .filter(|(_, x)| !certificate.region.contains(x))
-        .map(|(k, _)| k);
-    let first = outside.next()?;
-    Some(OutsideRegion {
-        outputs: 1 + outside.count(),
-        first,
+    // (count outside, earliest time outside)
+    let scan = |(times, states): (&[f64], &[f64])| {
+        times
+            .iter()
+            .zip(states.chunks_exact(S::DIM))
+            .filter(|(_, x)| !certificate.region.contains(x))
+            .fold((0, f64::INFINITY), |(count, first), (&t, _)| {
+                (count + 1, first.min(t))
+            })
+    };
+    let (outputs, first_output) = scan(outputs);
+    let (steps, first_step) = scan(steps);
+    (outputs + steps > 0).then_some(OutsideRegion {
+        outputs,
+        steps,
+        first_time: first_output.min(first_step),
     })
 }
 

@@ -143,11 +143,12 @@ pub struct Simulation {
     pub free_energy: Vec<f64>,
     /// Monotonicity of E along the trajectory.
     pub energy: EnergyCheck,
-    /// The outputs outside the region of the system's metric certificate,
-    /// when it holds only there ([`CertificateMode::OnRegion`](crate::CertificateMode::OnRegion)):
+    /// The outputs and integrator steps outside the region of the system's
+    /// metric certificate, when it holds only there
+    /// ([`CertificateMode::OnRegion`](crate::CertificateMode::OnRegion)):
     /// outside it the free energy is not certified to be non-decreasing.
     /// `None` (always, for systems without such a certificate) when every
-    /// output lies in the region.
+    /// output and every step's end lies in the region.
     pub outside_region: Option<OutsideRegion>,
     /// Integrator statistics.
     pub stats: IntegrationStats,
@@ -250,7 +251,9 @@ pub fn simulate_many<S: MetriplecticSystem>(
 /// Both guarantees need K ⪰ 0 along the way. A system whose metric
 /// certificate holds only on its region ([`CertificateMode::OnRegion`](crate::CertificateMode::OnRegion))
 /// has it only there: [`Simulation::outside_region`] counts the outputs
-/// outside, where a decrease of E is the model's, not the integrator's.
+/// and the integrator's steps outside, where a decrease of E is the
+/// model's, not the integrator's. Steps count because the outputs alone can
+/// all lie inside while the trajectory between them leaves the region.
 pub fn simulate<S: MetriplecticSystem>(
     model: &Model<S>,
     x0: &[f64],
@@ -304,6 +307,8 @@ pub fn simulate<S: MetriplecticSystem>(
             let solution = Integration {
                 times: output.times,
                 states: output.states,
+                step_times: output.step_times,
+                step_states: output.step_states,
                 stats: output.stats,
             };
             (solution, Some(output.tolerances))
@@ -335,7 +340,10 @@ pub fn simulate<S: MetriplecticSystem>(
         None => dopri_tolerances(model, &solution.states, &options.integrator, factor),
     };
     let energy = check_energy(&free_energy, &tolerances);
-    let outside_region = outside_region::<S>(&solution.states);
+    let outside_region = outside_region::<S>(
+        (&solution.times, &solution.states),
+        (&solution.step_times, &solution.step_states),
+    );
     let names = S::STATE_NAMES.iter().map(|s| (*s).to_owned()).collect();
     let trajectory = Trajectory::new(names, solution.times, solution.states, Some(derivatives))?;
     Ok(Simulation {
