@@ -147,6 +147,9 @@ const MIN_FRACTION: f64 = 1.0 / 1024.0;
 pub(super) struct Output {
     pub times: Vec<f64>,
     pub states: Vec<f64>,
+    /// The end time and state of every step (row-major).
+    pub step_times: Vec<f64>,
+    pub step_states: Vec<f64>,
     pub stats: IntegrationStats,
     /// τₖ for outputs k and k + 1 (see [`simulate`](crate::simulate)).
     pub tolerances: Vec<f64>,
@@ -258,6 +261,7 @@ fn integrate_with<S: MetriplecticSystem>(
     let mut times = Vec::new();
     let mut states = Vec::new();
     let mut tolerances = Vec::new();
+    let (mut step_times, mut step_states) = (Vec::new(), Vec::new());
     // Tolerance accumulated since the last output.
     let mut pending = 0.0;
     let mut stats = IntegrationStats::default();
@@ -308,6 +312,8 @@ fn integrate_with<S: MetriplecticSystem>(
             tau = next_tau;
             step_index += 1;
             stats.accepted_steps += 1;
+            step_times.push(t0 + tau);
+            step_states.extend_from_slice(&x);
             if every_step && i < count {
                 push_output(
                     &mut times,
@@ -331,6 +337,8 @@ fn integrate_with<S: MetriplecticSystem>(
     Ok(Output {
         times,
         states,
+        step_times,
+        step_states,
         stats,
         tolerances,
     })
@@ -590,10 +598,27 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             }
             solved.residual = norm(&self.residual);
             // Damped Newton: a step that raised the residual (above rounding)
-            // is halved, back from the iterate it was taken from.
+            // is retried from the iterate it was taken from, first with a
+            // Jacobian taken there if its own was taken elsewhere (then it
+            // may not point downhill at all), then halved.
             let worse = solved.residual.is_nan()
                 || (solved.residual > base_residual
                     && solved.residual > tolerance(y, solved.noise));
+            let fresh = self
+                .newton
+                .as_ref()
+                .is_some_and(|newton| newton.lu.is_some() && newton.at == self.base);
+            if self.newton.is_some() && worse && !fresh && jacobians < self.max_jacobians {
+                y.copy_from_slice(&self.base);
+                self.map(x, at_x, h, y);
+                stats.evaluations = stats.evaluations.saturating_add(1);
+                self.jacobian(x, at_x, h, y, stats);
+                jacobians += 1;
+                previous = f64::INFINITY;
+                base_residual = f64::INFINITY;
+                fraction = 1.0;
+                continue;
+            }
             if self.newton.is_some() && fraction > MIN_FRACTION && worse {
                 fraction *= 0.5;
                 for ((yj, b), d) in y.iter_mut().zip(&self.base).zip(&self.update) {
@@ -650,8 +675,23 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
                 }
                 previous = f64::INFINITY;
             }
-            // Too slow (or growing): a Jacobian at this iterate.
+            // Too slow (or growing): a Jacobian at this iterate, or, before
+            // the step's first Jacobian, at the best iterate if this one ran
+            // away from it (fixed-point steps on a stiff Φ are explicit Euler
+            // steps: a probe's first two went from (2, 2) to (5.9, −190),
+            // where Newton no longer found the root near the guess).
             if update > tolerance && update > SLOW * previous && jacobians < self.max_jacobians {
+                if jacobians == 0 && best.is_some_and(|(smallest, _)| smallest < update) {
+                    y.copy_from_slice(&self.best);
+                    self.map(x, at_x, h, y);
+                    stats.evaluations = stats.evaluations.saturating_add(1);
+                    self.jacobian(x, at_x, h, y, stats);
+                    jacobians += 1;
+                    previous = f64::INFINITY;
+                    base_residual = f64::INFINITY;
+                    fraction = 1.0;
+                    continue;
+                }
                 self.jacobian(x, at_x, h, y, stats);
                 jacobians += 1;
                 self.direction();
