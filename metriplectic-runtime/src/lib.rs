@@ -116,7 +116,7 @@ pub use identify::{
     CoefficientBlock, Cost, EntropySearch, Gauge, History, Identification, IdentifyConfig,
     IdentifyWarning, IterationRecord, IterationScheme, JointStep, JointStepRecord, MetricSearch,
     SearchOptions, SearchReport, SosBasis, Stagnation, StepOutcome, StepRecord, StopReason,
-    Support, TrustRegion, Validation,
+    Subproblem, Support, TrustRegion, Validation,
 };
 pub use io::{write_file, WriteMode};
 pub use metriplectic_macros::metriplectic;

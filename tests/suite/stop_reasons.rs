@@ -4,6 +4,7 @@
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{CoefficientBlock, IdentifyWarning, SearchOptions, StopReason};
+use rand::Rng;
 
 use crate::common::{linear2d_data, Linear2d};
 
@@ -114,6 +115,69 @@ fn a_bound_below_the_true_coefficients_is_reported() {
     assert!(*count >= 1 && *count == at_bound, "{count} vs {at_bound}");
     let message = warning.to_string();
     assert!(message.contains("SearchOptions::eta"), "{message}");
+}
+
+metriplectic! {
+    /// An oscillator with friction 50, above the default metric bound
+    /// η = max(20, 4h) = 20.
+    pub struct HeavyFriction;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * q^2 + 0.5 * p^2;
+    entropy degree 4;
+    metric degree 0;
+    reference {
+        entropy = -0.75 * (q^2 + p^2) - 0.1 * q^4;
+        metric = [[0, 0], [0, 50]];
+    }
+}
+
+#[test]
+fn a_metric_at_its_bound_is_reported() {
+    // K ⪯ ηI with η = 20 cannot reach the true friction 50: a probe's run
+    // came back with K₂₂ = 20 and no warning.
+    let data = metriplectic::systems::reference_samples::<HeavyFriction>(300, 7, |rng| {
+        (0..2).map(|_| rng.random_range(-2.0..2.0)).collect()
+    });
+    let config = IdentifyConfig {
+        max_iterations: 10,
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<HeavyFriction>(&data, &config).unwrap();
+    let eta = config.search.eta_for::<HeavyFriction>();
+    assert_eq!(eta, 20.0);
+    let warning = result
+        .warnings
+        .iter()
+        .find(|w| matches!(w, IdentifyWarning::MetricAtBound { .. }))
+        .unwrap_or_else(|| panic!("no metric-bound warning in {:?}", result.warnings));
+    let IdentifyWarning::MetricAtBound { eigenvalue, .. } = warning else {
+        unreachable!()
+    };
+    assert!((eigenvalue - eta).abs() <= 1e-3 * eta, "{warning}");
+    assert!(
+        warning.to_string().contains("SearchOptions::eta"),
+        "{warning}"
+    );
+
+    // With room above the truth the same data fit it, without the warning.
+    let roomy = IdentifyConfig {
+        search: SearchOptions {
+            eta: Some(200.0),
+            ..SearchOptions::default()
+        },
+        max_iterations: 40,
+        ..IdentifyConfig::default()
+    };
+    let result = identify::<HeavyFriction>(&data, &roomy).unwrap();
+    assert!(
+        !result
+            .warnings
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::MetricAtBound { .. })),
+        "{:?}",
+        result.warnings
+    );
 }
 
 #[test]

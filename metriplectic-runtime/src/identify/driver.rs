@@ -16,7 +16,7 @@ use super::start::{initial_coefficients, start_sample};
 use super::state::RunState;
 use super::steps::iterate_on;
 use super::warm_up::{warm_up, warms_up};
-use super::warnings::{data_warnings, progress_warning, IdentifyWarning};
+use super::warnings::{data_warnings, failed_solves, progress_warning, IdentifyWarning};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
 use crate::error::Result;
@@ -310,6 +310,7 @@ pub(super) fn finish<S: MetriplecticSystem, D: IdentificationData>(
     // it (a probe's pool of one sample, held out of 200, got no warning).
     let mut warnings = data_warnings(&split.pool, &state.model, config)?;
     warnings.extend(still_improving);
+    warnings.extend(failed_solves(&state.history));
     Ok(Identification {
         model: state.model,
         history: state.history,
@@ -325,6 +326,7 @@ mod tests {
     use crate::identify::config::{IterationScheme, Validation};
     use crate::identify::history::StepOutcome;
     use crate::identify::start::fitted_start;
+    use crate::identify::warnings::Subproblem;
     use crate::model::identity_metric;
     use crate::test_system::{reference_data, Quadratic2d};
     use crate::Error;
@@ -735,6 +737,15 @@ mod tests {
                 && r.entropy.outcome == StepOutcome::RejectedFailed
         }));
         assert_eq!(result.model, kept);
+        // …and the warnings say which solves failed.
+        for subproblem in [Subproblem::MetricSearch, Subproblem::EntropySearch] {
+            let expected = IdentifyWarning::FailedSolves {
+                subproblem,
+                failed: 2,
+                attempted: 2,
+            };
+            assert!(result.warnings.contains(&expected), "{:?}", result.warnings);
+        }
     }
 
     #[test]

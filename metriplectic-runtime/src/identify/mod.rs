@@ -34,4 +34,4 @@ pub use search::{
     SearchOptions, SearchReport, SosBasis,
 };
 pub use support::{Gauge, Support};
-pub use warnings::{CoefficientBlock, IdentifyWarning};
+pub use warnings::{CoefficientBlock, IdentifyWarning, Subproblem};

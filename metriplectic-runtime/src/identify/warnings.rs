@@ -6,14 +6,15 @@
 use serde::{Deserialize, Serialize};
 
 use super::config::IdentifyConfig;
-use super::history::History;
+use super::history::{History, StepOutcome};
 use super::search::{entropy_regression, metric_regression};
 use crate::analysis::identifiability::{data_states, hamiltonian_coefficients};
 use crate::data::IdentificationData;
+use crate::error::Num;
 use crate::error::Result;
 use crate::model::classical::{self, Equalities};
 use crate::model::Model;
-use crate::solve::linalg::{singular_values, triangular_factor};
+use crate::solve::linalg::{singular_values, symmetric_eigenvalues, triangular_factor};
 use crate::solve::Regression;
 use crate::system::{CertificateMode, MetriplecticSystem};
 
@@ -23,6 +24,16 @@ const RANK_TOLERANCE: f64 = 1e-12;
 /// An entropy coefficient within this fraction of η of ±η is at the bound
 /// (an interior-point solution stops a few digits short of an active bound).
 const BOUND_TOLERANCE: f64 = 1e-6;
+
+/// The metric's largest eigenvalue within this fraction of η is at the
+/// bound K ⪯ ηI: looser than [`BOUND_TOLERANCE`], since for a state-dependent
+/// metric the bound may bind at a state between the data's.
+const METRIC_BOUND_TOLERANCE: f64 = 1e-3;
+
+/// A fit whose misfit is above this says nothing about Π∇E = 0: the
+/// symmetry test's tolerance grows with the misfit only up to it (a probe's
+/// fit at held-out error 0.73 was told Π∇E = 0 on the data).
+const MAX_SYMMETRY_MISFIT: f64 = 0.1;
 
 /// Iterations over which [`IdentifyWarning::StillImproving`] measures the
 /// rate when the run has no stagnation window.
@@ -154,6 +165,47 @@ pub enum IdentifyWarning {
         /// The gauge's value, tr K(0).
         trace: f64,
     },
+    /// The metric's largest eigenvalue on the data states reaches the
+    /// bound η of the metric search (K ⪯ ηI): the bound, not the data, may
+    /// have set the metric's size (a probe's friction of 50 came back as 20
+    /// = η without a word).
+    MetricAtBound {
+        /// The largest eigenvalue of K(x) over the fit's states.
+        eigenvalue: f64,
+        /// The bound η the run used.
+        eta: f64,
+    },
+    /// Most solves of one subproblem failed (status not usable), so the
+    /// coefficients it searches stayed near the start or an early iterate.
+    FailedSolves {
+        /// The subproblem.
+        subproblem: Subproblem,
+        /// Solves that failed.
+        failed: usize,
+        /// Solves attempted (skipped ones not counted).
+        attempted: usize,
+    },
+}
+
+/// One of an iteration's convex subproblems.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Subproblem {
+    /// The metric search (entropy fixed).
+    MetricSearch,
+    /// The entropy search (metric fixed).
+    EntropySearch,
+    /// The joint step.
+    JointStep,
+}
+
+impl std::fmt::Display for Subproblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::MetricSearch => "metric searches",
+            Self::EntropySearch => "entropy searches",
+            Self::JointStep => "joint steps",
+        })
+    }
 }
 
 impl std::fmt::Display for IdentifyWarning {
@@ -223,6 +275,25 @@ impl std::fmt::Display for IdentifyWarning {
                 "the data determine the scale of K and E (Π∇E ≠ 0 on them), so the gauge \
                  tr K(0) = {trace:e} constrains the fit and biases it unless that is the true \
                  trace; drop SearchOptions::gauge unless the trace is known"
+            ),
+            Self::MetricAtBound { eigenvalue, eta } => write!(
+                f,
+                "the metric's largest eigenvalue on the data, {}, is at the bound K ⪯ ηI, \
+                 η = {}: the bound may have cut off the metric the data need; raise \
+                 SearchOptions::eta",
+                Num(*eigenvalue),
+                Num(*eta)
+            ),
+            Self::FailedSolves {
+                subproblem,
+                failed,
+                attempted,
+            } => write!(
+                f,
+                "{failed} of {attempted} {subproblem} failed (solver status not usable), so what \
+                 they search stayed near the start; the history's statuses say more. Badly \
+                 scaled states (or a region far from unit size) are a common cause: rescale the \
+                 state variables to order 1"
             ),
             Self::StillImproving {
                 cost,
@@ -365,6 +436,11 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             eta,
             hamiltonian_scale: S::HAMILTONIAN_SCALE,
         });
+    }
+    if let Some(eigenvalue) = largest_metric_eigenvalue(data, model) {
+        if eigenvalue >= (1.0 - METRIC_BOUND_TOLERANCE) * eta {
+            warnings.push(IdentifyWarning::MetricAtBound { eigenvalue, eta });
+        }
     }
     let metric = metric_regression::<S>(data, psi)?;
     let unknowns = free.len().saturating_sub(metric_rows.len());
@@ -519,7 +595,66 @@ fn poisson_part_vanishes<S: MetriplecticSystem>(
         }
     }
     // Relative sizes: the states' Π∇E against their field.
-    (whole > 0.0).then(|| poisson_part.sqrt() <= SCALE_TOLERANCE.max(misfit) * whole.sqrt())
+    let tolerance = SCALE_TOLERANCE.max(misfit.min(MAX_SYMMETRY_MISFIT));
+    (whole > 0.0).then(|| poisson_part.sqrt() <= tolerance * whole.sqrt())
+}
+
+/// The largest eigenvalue of K(x) over the data's states and the origin
+/// (where the bound's constant term acts); `None` without states or if an
+/// eigensolve fails.
+fn largest_metric_eigenvalue<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+    model: &Model<S>,
+) -> Option<f64> {
+    let n = S::DIM;
+    let origin = vec![0.0; n];
+    let mut metric = vec![0.0; n * n];
+    let mut largest: Option<f64> = None;
+    for x in data_states(data).into_iter().chain([origin.as_slice()]) {
+        S::metric_value(x, model.metric_coefficients(), &mut metric);
+        let matrix = nalgebra::DMatrix::from_row_slice(n, n, &metric);
+        let values = symmetric_eigenvalues(&matrix)?;
+        let top = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        largest = Some(largest.map_or(top, |l| l.max(top)));
+    }
+    largest
+}
+
+/// [`IdentifyWarning::FailedSolves`] for each subproblem most of whose
+/// solves in `history` failed.
+pub(crate) fn failed_solves(history: &History) -> Vec<IdentifyWarning> {
+    let mut counts = [
+        (Subproblem::MetricSearch, 0, 0),
+        (Subproblem::EntropySearch, 0, 0),
+        (Subproblem::JointStep, 0, 0),
+    ];
+    for record in &history.iterations {
+        let joint = record.joint.as_ref().map(|joint| &joint.step);
+        for (count, step) in
+            counts
+                .iter_mut()
+                .zip([Some(&record.metric), Some(&record.entropy), joint])
+        {
+            match step.map(|step| step.outcome) {
+                None | Some(StepOutcome::Skipped) => {}
+                Some(outcome) => {
+                    count.2 += 1;
+                    count.1 += usize::from(outcome == StepOutcome::RejectedFailed);
+                }
+            }
+        }
+    }
+    counts
+        .into_iter()
+        .filter(|&(_, failed, attempted)| failed > 0 && 2 * failed > attempted)
+        .map(
+            |(subproblem, failed, attempted)| IdentifyWarning::FailedSolves {
+                subproblem,
+                failed,
+                attempted,
+            },
+        )
+        .collect()
 }
 
 /// Numerical rank of the regression's `columns` on the subspace where the
