@@ -36,17 +36,17 @@ use serde::{Deserialize, Serialize};
 #[command(about = "Reproduce an experiment of the generalized metriplectic paper")]
 pub struct Options {
     /// Seed of every random draw (data, initial entropy, minibatches, plots).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     pub seed: u64,
     /// Minibatch size q of Algorithm 2 (the paper uses 2000).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2000)]
     pub batch_size: usize,
     /// Iteration cap [default: the paper's count for the experiment].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub iterations: Option<usize>,
     /// Stop when the mean absolute residual per component on the training
     /// data reaches this times their mean |ẋ| (a relative tolerance).
-    #[arg(long, default_value_t = 1e-9)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1e-9)]
     pub tolerance: f64,
     /// Output directory (default: `target/paper/<experiment>`).
     #[arg(long)]
@@ -55,16 +55,16 @@ pub struct Options {
     #[arg(long)]
     pub force: bool,
     /// Trajectories simulated for the phase-portrait figure.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 200)]
     pub plot_trajectories: usize,
     /// Training trajectories synthesised from the reference model.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 100)]
     pub train_trajectories: usize,
     /// Held-out trajectories (never seen by the identifier).
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 20)]
     pub heldout_trajectories: usize,
     /// Samples per trajectory (log-uniform in time).
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 50)]
     pub samples_per_trajectory: usize,
     /// Iteration scheme: `joint` adds a joint linearised trust-region step to
     /// each iteration of Algorithm 2 (our addition; it keeps the cost
@@ -85,7 +85,7 @@ pub struct Options {
     #[arg(long)]
     pub resume: bool,
     /// Save `<out>/checkpoint.json` every this many iterations (and on stop).
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10)]
     pub checkpoint_every: usize,
     /// Start cold, from the library's default start (the entropy fitted at
     /// the default metric; nothing of the truth used), whatever the
@@ -94,7 +94,7 @@ pub struct Options {
     pub cold_start: bool,
     /// Fix the gauge tr K(0) = this value (e.g. the state dimension), for
     /// systems whose data fix K only up to scale.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub gauge_trace: Option<f64>,
 }
 
@@ -326,11 +326,22 @@ pub fn run_until<S: MetriplecticSystem>(
         .unwrap_or_else(|| Path::new("target").join("paper").join(experiment.name));
     let checkpoint = out.join("checkpoint.json");
     if options.resume {
-        if !checkpoint.is_file() {
-            return Err(ReproductionError::Option(format!(
-                "--resume: there is no {} to continue from",
-                checkpoint.display()
-            )));
+        let path = checkpoint.display();
+        let refusal = match fs::metadata(&checkpoint) {
+            Ok(meta) if meta.is_file() => None,
+            Ok(meta) if meta.is_dir() => Some(format!(
+                "{path} is a directory, not a checkpoint to continue from"
+            )),
+            Ok(_) => Some(format!(
+                "{path} is not a regular file, so not a checkpoint to continue from"
+            )),
+            Err(err) if err.kind() == std::io::ErrorKind::NotFound => {
+                Some(format!("there is no {path} to continue from"))
+            }
+            Err(err) => Some(format!("{path} cannot be read: {err}")),
+        };
+        if let Some(reason) = refusal {
+            return Err(ReproductionError::Option(format!("--resume: {reason}")));
         }
     } else {
         prepare_output_dir(&out, options.force)?;

@@ -32,19 +32,39 @@ pub struct SynthesizeOptions {
     #[arg(long, value_name = "FILE.csv")]
     pub out: PathBuf,
     /// Number of trajectories.
-    #[arg(long, value_name = "N", default_value_t = 100)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        default_value_t = 100
+    )]
     pub trajectories: usize,
     /// Samples per trajectory (log-uniform in time).
-    #[arg(long, value_name = "N", default_value_t = 50)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        default_value_t = 50
+    )]
     pub samples: usize,
     /// Standard deviation of the Gaussian noise added to every state value.
-    #[arg(long, value_name = "SIGMA", default_value_t = 0.01)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "SIGMA",
+        default_value_t = 0.01
+    )]
     pub noise: f64,
     /// Also write the exact (noise-free) derivatives, as columns dq, dp, ...
     #[arg(long)]
     pub derivatives: bool,
     /// Seed of the initial states, sample times and noise.
-    #[arg(long, value_name = "N", default_value_t = 1)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        default_value_t = 1
+    )]
     pub seed: u64,
     /// Replace an existing file.
     #[arg(long)]

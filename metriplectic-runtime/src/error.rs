@@ -594,6 +594,76 @@ pub enum PlotError {
 /// `Result` with the runtime's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+impl Error {
+    /// The same error, saying where its subject was found: `place` (e.g.
+    /// "model file PATH", "the best model of checkpoint PATH") joins the
+    /// quantity an error names ("metric coefficients in model file PATH:
+    /// …"), so that an error raised while reading a file names the file.
+    /// The variant stays the same; errors that name their path already
+    /// (`Io`, `FileTooLarge`, …) and those about something else are
+    /// returned unchanged.
+    pub(crate) fn located(self, place: &str) -> Self {
+        let at = |what: String| format!("{what} in {place}");
+        match self {
+            Self::DimensionMismatch {
+                what,
+                expected,
+                found,
+            } => Self::DimensionMismatch {
+                what: at(what),
+                expected,
+                found,
+            },
+            Self::NonFinite { what, index, value } => Self::NonFinite {
+                what: at(what),
+                index,
+                value,
+            },
+            Self::MetricNotPositive {
+                what,
+                eigenvalue,
+                direction,
+                state,
+            } => Self::MetricNotPositive {
+                what: at(what),
+                eigenvalue,
+                direction,
+                state,
+            },
+            Self::MetricNotCertified { what, reason } => Self::MetricNotCertified {
+                what: at(what),
+                reason,
+            },
+            Self::NotClassical {
+                what,
+                condition,
+                row,
+                residual,
+                scale,
+            } => Self::NotClassical {
+                what: at(what),
+                condition,
+                row,
+                residual,
+                scale,
+            },
+            Self::InvalidArgument { what, reason } => Self::InvalidArgument {
+                what: at(what),
+                reason,
+            },
+            Self::WrongSystem { expected, found } => Self::WrongSystem {
+                expected,
+                found: format!("{found} according to {place}"),
+            },
+            Self::Json { context, source } => Self::Json {
+                context: Some(context.map_or_else(|| place.to_owned(), at)),
+                source,
+            },
+            other => other,
+        }
+    }
+}
+
 /// Checks that `values` has length `expected`.
 pub(crate) fn check_len(what: &str, values: &[f64], expected: usize) -> Result<()> {
     if values.len() == expected {

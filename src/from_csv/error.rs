@@ -14,6 +14,17 @@ pub enum FromCsvError {
     /// A file exists where an output goes and `--overwrite` was not given.
     #[error("{0} appeared while the run was going; refusing to replace it without --overwrite")]
     OutputExists(PathBuf),
+    /// An output could not be written where it goes (found before the
+    /// run): a directory or other non-file under an output's name, a
+    /// read-only file to be replaced, or an output directory that is not
+    /// writable.
+    #[error("cannot write {path}: {reason}; choose another --out or fix this before the run")]
+    OutputNotWritable {
+        /// The output file or directory.
+        path: PathBuf,
+        /// Why it cannot be written.
+        reason: String,
+    },
     /// The input CSV has the name of an output in the output directory, or
     /// such a name there links to it, and `--overwrite` would replace it.
     #[error("{0} is a file this run writes into --out, and it is the input CSV (or a link to it); with --overwrite the input would be replaced: choose another --out or move the input")]
@@ -33,11 +44,11 @@ pub enum FromCsvError {
         known: String,
     },
     /// No system was named and the columns do not single one out.
-    #[error("{path}: {reason}; pass --system NAME\nsystems this example knows: {known}")]
+    #[error("{path}: {reason}\nsystems this example knows: {known}")]
     UnknownSystem {
         /// The CSV.
         path: PathBuf,
-        /// What the columns matched.
+        /// What the columns matched, and what to do.
         reason: String,
         /// Every system with its state variables.
         known: String,

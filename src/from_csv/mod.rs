@@ -55,15 +55,15 @@ use std::time::Instant;
 
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
-    identifiability, identify_with_observer, CsvError, Identifiability, IdentifiabilityOptions,
-    Identification, IterationRecord, Score,
+    identifiability, identify_with_observer, read_trajectories_from, CsvError, Identifiability,
+    IdentifiabilityOptions, Identification, IterationRecord, Score,
 };
 
 use crate::systems::{Duffing, Linear2d, RigidBody};
 use columns::infer_system;
 use error::io_error;
 use options::check_options;
-use output::{check_input_is_not_an_output, check_output_dir, write_output};
+use output::{check_input_is_not_an_output, check_output_dir, check_output_files, write_output};
 use summary::report;
 use validation::{trajectory_label, validate};
 
@@ -88,12 +88,17 @@ pub fn run_until(options: &Options, stop: &AtomicBool) -> Result<Summary, FromCs
     check_options(options)?;
     check_output_dir(&options.out, options.overwrite)?;
     check_input_is_not_an_output(&options.data, &options.out, options.overwrite)?;
+    check_output_files(&options.out)?;
+    // Read once, whole: the header and the rows come from the same bytes,
+    // so a pipe or FIFO (`--data /dev/stdin`, `--data <(…)`) reads too.
+    let data = fs::read(&options.data).map_err(io_error(&options.data))?;
     let system = match options.system {
         Some(system) => system,
-        None => infer_system(&options.data)?,
+        None => infer_system(&options.data, &data)?,
     };
     let context = Context {
         options,
+        data: &data,
         system,
         started,
         stop,
@@ -161,6 +166,8 @@ impl Equations {
 /// What one run needs besides the system type.
 struct Context<'a> {
     options: &'a Options,
+    /// The CSV's bytes, read from `options.data`.
+    data: &'a [u8],
     system: SystemName,
     started: Instant,
     stop: &'a AtomicBool,
@@ -170,21 +177,22 @@ impl Context<'_> {
     fn run<S: MetriplecticSystem>(&self) -> Result<Summary, FromCsvError> {
         let options = self.options;
         let path = &options.data;
-        let trajectories = read_trajectories::<S>(path).map_err(|source| match source {
-            Error::Csv(CsvError::MissingColumns { .. } | CsvError::UnknownColumns { .. }) => {
-                FromCsvError::StateNames {
-                    path: path.clone(),
-                    system: self.system.as_str(),
-                    state: S::STATE_NAMES.join(", "),
-                    detail: source.to_string(),
-                    known: SystemName::catalogue(),
+        let trajectories =
+            read_trajectories_from(self.data, S::STATE_NAMES).map_err(|source| match source {
+                Error::Csv(CsvError::MissingColumns { .. } | CsvError::UnknownColumns { .. }) => {
+                    FromCsvError::StateNames {
+                        path: path.clone(),
+                        system: self.system.as_str(),
+                        state: S::STATE_NAMES.join(", "),
+                        detail: source.to_string(),
+                        known: SystemName::catalogue(),
+                    }
                 }
-            }
-            source => FromCsvError::Data {
-                path: path.clone(),
-                source,
-            },
-        })?;
+                source => FromCsvError::Data {
+                    path: path.clone(),
+                    source,
+                },
+            })?;
         if trajectories.len() < 2 {
             return Err(FromCsvError::Option(format!(
                 "{}: holds {} trajectory; validation holds whole trajectories out, so at least two are needed (label them with a `trajectory` column)",

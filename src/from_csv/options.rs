@@ -22,7 +22,8 @@ times strictly increasing) and optionally d<name> for every state variable (meas
 derivatives). Columns may come in any order."
 )]
 pub struct Options {
-    /// Trajectory CSV to identify from.
+    /// Trajectory CSV to identify from; read once, so a pipe works too
+    /// (`--data /dev/stdin`).
     #[arg(long, value_name = "FILE.csv")]
     pub data: PathBuf,
     /// Output directory; created if absent. An existing non-empty directory is
@@ -41,7 +42,12 @@ pub struct Options {
     pub weak: bool,
     /// Samples per weak-form window (at least 3; implies --weak)
     /// [default: 15].
-    #[arg(long, value_name = "N", conflicts_with = "derivatives")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        conflicts_with = "derivatives"
+    )]
     pub window: Option<usize>,
     /// Identify from derivatives: exact (the CSV's derivative columns dq, dp, ...; the
     /// default when it has them), fd2, fd4 or fd6 (finite differences of that
@@ -52,20 +58,35 @@ pub struct Options {
     pub derivatives: Option<DerivativeChoice>,
     /// Fraction of the trajectories held out whole for validation (at least
     /// one is held out and at least one kept).
-    #[arg(long, value_name = "F", default_value_t = 0.2)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "F",
+        default_value_t = 0.2
+    )]
     pub validation_fraction: f64,
     /// Seed of the validation split and the identifier.
-    #[arg(long, value_name = "N", default_value_t = 1)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        default_value_t = 1
+    )]
     pub seed: u64,
     /// Iteration cap of the identification [default: 100].
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N")]
     pub max_iterations: Option<usize>,
     /// Write into a non-empty output directory, replacing files of the same
     /// names (other files are left alone).
     #[arg(long)]
     pub overwrite: bool,
     /// Validation trajectories drawn against the model's prediction.
-    #[arg(long, value_name = "N", default_value_t = 4)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        default_value_t = 4
+    )]
     pub plot_trajectories: usize,
     /// No progress bar and no report on stdout (errors still go to stderr).
     #[arg(long)]

@@ -32,12 +32,80 @@ pub(super) fn check_output_dir(out: &Path, overwrite: bool) -> Result<(), FromCs
     }
 }
 
+/// The files every run writes into the output directory (figures that
+/// cannot be written are warnings, not failures).
+const FIXED_OUTPUTS: [&str; 4] = ["model.json", "equations.txt", "history.csv", "summary.json"];
+
+/// Refuses, before the run, an existing output directory that the run
+/// could not write into, or a fixed output name there that is not a
+/// regular file (or a link to one) or is read-only: found only when the
+/// results were written, such a run was lost. A name that does not exist,
+/// or a link to a file that does not exist yet, is fine.
+pub(super) fn check_output_files(out: &Path) -> Result<(), FromCsvError> {
+    if !out.is_dir() {
+        // Made later; `check_output_dir` refused anything else.
+        return Ok(());
+    }
+    let refuse = |path: std::path::PathBuf, reason: String| {
+        Err(FromCsvError::OutputNotWritable { path, reason })
+    };
+    for name in FIXED_OUTPUTS {
+        let path = out.join(name);
+        match fs::metadata(&path) {
+            Ok(meta) if meta.is_dir() => {
+                return refuse(
+                    path,
+                    "it is a directory, where this run writes a file".into(),
+                )
+            }
+            Ok(meta) if !meta.is_file() => return refuse(
+                path,
+                "it is not a regular file (a FIFO, socket or device), where this run writes a file"
+                    .into(),
+            ),
+            Ok(meta) if meta.permissions().readonly() => {
+                return refuse(
+                    path,
+                    "the file is read-only, so this run could not replace it".into(),
+                )
+            }
+            Ok(_) => {}
+            Err(err) if err.kind() == std::io::ErrorKind::NotFound => {}
+            Err(err) => return refuse(path, err.to_string()),
+        }
+    }
+    // Whether files can be made there: make one and remove it.
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let probe = out.join(format!(
+        ".from_csv-write-test-{}-{nanos}",
+        std::process::id()
+    ));
+    match fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+    {
+        Ok(file) => {
+            drop(file);
+            // Nothing of the user's: a probe left behind is harmless.
+            let _ = fs::remove_file(&probe);
+            Ok(())
+        }
+        // The same name made a moment ago: files can be made there.
+        Err(err) if err.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+        Err(err) => refuse(
+            out.to_owned(),
+            format!("the output directory is not writable ({err})"),
+        ),
+    }
+}
+
 /// Whether the pipeline may write a file of this name into the output
 /// directory: its fixed files, and figures (`.png`).
 fn is_output_name(name: &std::ffi::OsStr) -> bool {
-    ["model.json", "equations.txt", "history.csv", "summary.json"]
-        .iter()
-        .any(|fixed| name == *fixed)
+    FIXED_OUTPUTS.iter().any(|fixed| name == *fixed)
         || Path::new(name).extension().is_some_and(|e| e == "png")
 }
 

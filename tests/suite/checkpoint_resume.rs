@@ -546,3 +546,158 @@ fn a_checkpoint_with_a_non_finite_cost_in_its_history_resumes() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A checkpoint that a crash of a copy or a hand edit damaged declares the
+/// checkpoint format but does not parse: it was called "not a checkpoint
+/// (it starts with "{\"format\": \"metriplectic-checkpoint\"…)". It is
+/// named as damaged, with the parser's line and column, and kept: neither
+/// a new run nor a resumed one replaces it.
+#[test]
+fn a_damaged_checkpoint_is_named_as_such_and_kept() {
+    let dir = scratch("damaged");
+    let data = linear2d_data(40, 15);
+    let path = dir.join("checkpoint.json");
+    let short = IdentifyConfig {
+        max_iterations: 1,
+        ..config(Some(&path))
+    };
+    identify::<Linear2d>(&data, &short).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    // A hand edit that breaks a line and drops a comma: `"version":3`
+    // alone on line 2, `"fingerprint"…` on line 3.
+    let edited = text.replacen(",\"version\":3,", ",\n\"version\":3\n", 1);
+    assert_ne!(edited, text);
+    let damaged: [(&str, String, &str); 3] = [
+        (
+            "truncated.json",
+            text[..text.len() / 2].to_owned(),
+            "EOF while parsing",
+        ),
+        (
+            "edited.json",
+            edited,
+            "expected `,` or `}` at line 3 column 1",
+        ),
+        (
+            "wrong_type.json",
+            text.replacen("\"radius\":", "\"radius\":\"wide\",\"was\":", 1),
+            "invalid type: string \"wide\", expected f64",
+        ),
+    ];
+    for (name, contents, expected) in damaged {
+        let file = dir.join(name);
+        std::fs::write(&file, &contents).unwrap();
+        // A new run that would write its checkpoint there.
+        let fresh = IdentifyConfig {
+            max_iterations: 1,
+            ..config(Some(&file))
+        };
+        let err = identify::<Linear2d>(&data, &fresh).unwrap_err();
+        let message = err.to_string();
+        assert!(
+            matches!(err, Error::InvalidArgument { ref what, .. } if what == "checkpoint"),
+            "{name}: {err}"
+        );
+        for part in [
+            file.to_str().unwrap(),
+            "is a damaged checkpoint",
+            expected,
+            "move or delete it",
+        ] {
+            assert!(message.contains(part), "{name}: `{part}` not in {message}");
+        }
+        assert!(!message.contains("is not a checkpoint"), "{message}");
+        // Resuming it, saving to it again or elsewhere.
+        let err = identify_resume::<Linear2d>(&file, &data, &fresh).unwrap_err();
+        assert!(err.to_string().contains("is a damaged checkpoint"), "{err}");
+        let err = identify_resume::<Linear2d>(&file, &data, &config(None)).unwrap_err();
+        assert!(matches!(err, Error::Json { .. }), "{name}: {err}");
+        let message = err.to_string();
+        for part in [file.to_str().unwrap(), "damaged or edited", expected] {
+            assert!(message.contains(part), "{name}: `{part}` not in {message}");
+        }
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), contents, "{name}");
+    }
+    // A whole checkpoint of an earlier run is still replaced.
+    identify::<Linear2d>(&data, &short).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A checkpoint whose model an edit made invalid said only "metric
+/// coefficients: K(x) is not positive semidefinite …": neither the file
+/// nor which of its two models.
+#[test]
+fn a_checkpoint_model_that_does_not_load_names_the_file_and_the_model() {
+    let dir = scratch("invalid-models");
+    let data = linear2d_data(40, 16);
+    let path = dir.join("checkpoint.json");
+    let scoring = IdentifyConfig {
+        validation: Validation::AllData,
+        max_iterations: 2,
+        ..config(Some(&path))
+    };
+    identify::<Linear2d>(&data, &scoring).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(
+        value["best"].is_array(),
+        "a scoring run keeps its best model"
+    );
+    for (which, pointer) in [("best", "/best/1/0"), ("current", "/metric/0")] {
+        let mut edited = value.clone();
+        *edited.pointer_mut(pointer).unwrap() = serde_json::json!(-5.0);
+        // The certificates prove the old metric; without them the edit is
+        // judged as a metric.
+        edited["certificate"] = serde_json::Value::Null;
+        edited["best_certificate"] = serde_json::Value::Null;
+        let file = dir.join(format!("{which}.json"));
+        std::fs::write(&file, edited.to_string()).unwrap();
+        let resume = IdentifyConfig {
+            checkpoint: None,
+            ..scoring.clone()
+        };
+        let err = identify_resume::<Linear2d>(&file, &data, &resume).unwrap_err();
+        assert!(matches!(err, Error::MetricNotPositive { .. }), "{err}");
+        let message = err.to_string();
+        let place = format!(
+            "metric coefficients in the {which} model of checkpoint {}: K(x) is not positive semidefinite",
+            file.display()
+        );
+        assert!(message.contains(&place), "`{place}` not in {message}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `--resume` of a reproduction whose `checkpoint.json` is a directory said
+/// "there is no …/checkpoint.json".
+#[test]
+fn resuming_from_a_directory_says_it_is_one() {
+    use clap::Parser;
+    use metriplectic::reproduction::{run_until, Options, ReproductionError};
+
+    let out = scratch("resume-directory");
+    std::fs::create_dir_all(out.join("checkpoint.json")).unwrap();
+    let options = Options::parse_from(["linear_2d", "--out", out.to_str().unwrap(), "--resume"]);
+    let experiment = metriplectic::experiments::linear_2d();
+    let err = run_until::<Linear2d>(
+        &experiment,
+        &options,
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+    .unwrap_err();
+    assert!(matches!(err, ReproductionError::Option(_)), "{err}");
+    let message = err.to_string();
+    assert!(
+        message.contains("checkpoint.json is a directory, not a checkpoint to continue from"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(&out).unwrap();
+    // A missing one is still called missing.
+    let err = run_until::<Linear2d>(
+        &experiment,
+        &options,
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("there is no"), "{err}");
+}

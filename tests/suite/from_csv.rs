@@ -486,3 +486,264 @@ fn a_csv_with_derivatives_is_identified_from_them_unless_told_otherwise() {
         "windows per trajectory"
     );
 }
+
+/// Input from a pipe: without --system the header was read through a
+/// separate buffered reader that swallowed the first 8 KiB, and the reader
+/// proper started mid-row ("line 1: unknown column(s) `1226266491696`…"),
+/// or found nothing left. The CSV is read once, so a FIFO works.
+#[cfg(unix)]
+#[test]
+fn a_csv_from_a_pipe_is_read_once() {
+    let csv = scratch("piped.csv");
+    write_csv::<Linear2d>(
+        &csv,
+        6,
+        SampleTimes::Uniform { interval: 0.1 },
+        3.9,
+        1.0,
+        0.0,
+    );
+    assert!(
+        std::fs::metadata(&csv).unwrap().len() > 8 << 10,
+        "more than a buffer"
+    );
+    let fifo = scratch("piped.fifo");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success(), "mkfifo failed");
+    // The writer blocks until the pipeline opens the FIFO.
+    let mut writer = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("exec cat \"$0\" > \"$1\"")
+        .arg(&csv)
+        .arg(&fifo)
+        .spawn()
+        .unwrap();
+    let out = scratch("piped_out");
+    let options = Options {
+        max_iterations: Some(1),
+        plot_trajectories: 0,
+        ..quiet_options(&fifo, &out)
+    };
+    // Before the fix the second open of the FIFO waited for a writer that
+    // had gone: run with a deadline, not forever.
+    let (sender, receiver) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = sender.send(run(&options).map_err(|e| e.to_string()));
+    });
+    let result = receiver.recv_timeout(std::time::Duration::from_secs(180));
+    if writer.try_wait().unwrap().is_none() {
+        writer.kill().unwrap();
+    }
+    writer.wait().unwrap();
+    let summary = result
+        .expect("the pipeline waited on the FIFO")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(summary.system, "linear_2d");
+    assert_eq!(summary.trajectories, 6);
+    assert_eq!(summary.samples, 6 * 40);
+}
+
+/// With --system a missing file was named twice ("nonexist.csv:
+/// nonexist.csv: No such file or directory"); a header the reader refuses
+/// gets the reader's words with and without --system.
+#[test]
+fn a_missing_file_is_named_once_and_headers_are_judged_by_the_reader() {
+    use metriplectic::from_csv::SystemName;
+
+    let out = scratch("named_once_out");
+    let missing = scratch("nonexist.csv");
+    for system in [None, Some(SystemName::Linear2d)] {
+        let options = Options {
+            system,
+            ..quiet_options(&missing, &out)
+        };
+        let err = run(&options).unwrap_err().to_string();
+        assert_eq!(err.matches("nonexist.csv").count(), 1, "{system:?}: {err}");
+        assert!(err.contains("No such file or directory"), "{err}");
+    }
+
+    let trailing = scratch("trailing_comma.csv");
+    std::fs::write(
+        &trailing,
+        "trajectory,t,x,v,dx,dv,\n0,0,1,2,3,4,\n1,0,1,2,3,4,\n",
+    )
+    .unwrap();
+    for system in [None, Some(SystemName::Duffing)] {
+        let options = Options {
+            system,
+            ..quiet_options(&trailing, &out)
+        };
+        let err = run(&options).unwrap_err().to_string();
+        assert!(
+            err.contains(
+                "trailing_comma.csv: line 1, column 7: the column has no name (a trailing comma?)"
+            ),
+            "{system:?}: {err}"
+        );
+    }
+    let empty = scratch("empty.csv");
+    std::fs::write(&empty, "").unwrap();
+    let err = run(&quiet_options(&empty, &out)).unwrap_err().to_string();
+    assert!(
+        err.contains("empty.csv: empty input or blank first line: expected a header line"),
+        "{err}"
+    );
+    let extra = scratch("extra_column.csv");
+    std::fs::write(&extra, "trajectory,time,x,v\n0,0,1,2\n1,0,1,2\n").unwrap();
+    let err = run(&quiet_options(&extra, &out)).unwrap_err().to_string();
+    assert!(
+        err.contains("nearly fit system `duffing` (x, v), but line 1: unknown column(s) `time`"),
+        "{err}"
+    );
+    assert!(!out.exists(), "refused inputs leave no output directory");
+}
+
+/// A negative number after a numeric option was taken for an option:
+/// `--validation-fraction -0.5` gave "unexpected argument '-0' found" and
+/// `--noise -1` "unexpected argument '-1'", not the range each option has.
+#[test]
+fn negative_numbers_reach_the_options_range_checks() {
+    use metriplectic::synthetic_csv::{synthesize_csv, SynthesizeOptions};
+
+    let csv = scratch("negative.csv");
+    small_csv::<Linear2d>(&csv);
+    let out = scratch("negative_out");
+    let parse = |flag: &str, value: &str| {
+        Options::try_parse_from([
+            "from_csv",
+            "--data",
+            csv.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            flag,
+            value,
+        ])
+    };
+    let options = parse("--validation-fraction", "-0.5").unwrap();
+    let err = run(&options).unwrap_err().to_string();
+    assert!(
+        err.contains("--validation-fraction -0.5 is not between 0 and 1"),
+        "{err}"
+    );
+    for flag in [
+        "--seed",
+        "--window",
+        "--max-iterations",
+        "--plot-trajectories",
+    ] {
+        let err = parse(flag, "-1").unwrap_err().to_string();
+        assert!(
+            err.contains(&format!("invalid value '-1' for '{flag}")),
+            "{flag}: {err}"
+        );
+    }
+
+    let synthesize = |args: &[&str]| {
+        let mut argv = vec!["synthesize_csv", "--system", "duffing", "--out"];
+        let path = scratch("negative_noise.csv");
+        let path = path.to_str().unwrap().to_owned();
+        argv.push(&path);
+        argv.extend(args);
+        SynthesizeOptions::try_parse_from(argv).map(|o| synthesize_csv(&o))
+    };
+    let err = synthesize(&["--noise", "-1"])
+        .unwrap()
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("invalid state noise σ: -1"), "{err}");
+    for flag in ["--trajectories", "--samples", "--seed"] {
+        let err = synthesize(&[flag, "-3"]).unwrap_err().to_string();
+        assert!(err.contains("invalid value '-3'"), "{flag}: {err}");
+    }
+
+    let reproduction = |flag: &str, value: &str| {
+        metriplectic::reproduction::Options::try_parse_from(["linear_2d", flag, value])
+    };
+    let options = reproduction("--tolerance", "-1").unwrap();
+    assert_eq!(options.tolerance, -1.0);
+    let options = reproduction("--gauge-trace", "-2").unwrap();
+    assert_eq!(options.gauge_trace, Some(-2.0));
+    for flag in [
+        "--seed",
+        "--batch-size",
+        "--iterations",
+        "--plot-trajectories",
+        "--train-trajectories",
+        "--heldout-trajectories",
+        "--samples-per-trajectory",
+        "--checkpoint-every",
+    ] {
+        let err = reproduction(flag, "-1").unwrap_err().to_string();
+        assert!(err.contains("invalid value '-1'"), "{flag}: {err}");
+    }
+}
+
+/// An output that cannot be written was found only after the whole
+/// identification (`model.json` a directory, a read-only `summary.json`):
+/// it is refused before the run, leaving everything as it was.
+#[test]
+fn outputs_that_cannot_be_written_are_refused_before_the_run() {
+    let csv = scratch("unwritable.csv");
+    small_csv::<Linear2d>(&csv);
+    let out = scratch("unwritable_out");
+    std::fs::create_dir_all(out.join("model.json")).unwrap();
+    let options = Options {
+        overwrite: true,
+        max_iterations: Some(1),
+        plot_trajectories: 0,
+        ..quiet_options(&csv, &out)
+    };
+    let err = run(&options).unwrap_err();
+    assert!(
+        matches!(err, FromCsvError::OutputNotWritable { .. }),
+        "{err:?}"
+    );
+    let message = err.to_string();
+    assert!(
+        message.contains("model.json: it is a directory, where this run writes a file"),
+        "{message}"
+    );
+    let names = |dir: &Path| {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
+    assert_eq!(
+        names(&out),
+        ["model.json"],
+        "nothing written, no probe left"
+    );
+
+    std::fs::remove_dir(out.join("model.json")).unwrap();
+    let summary = out.join("summary.json");
+    std::fs::write(&summary, "{}").unwrap();
+    let mut permissions = std::fs::metadata(&summary).unwrap().permissions();
+    permissions.set_readonly(true);
+    std::fs::set_permissions(&summary, permissions).unwrap();
+    let err = run(&options).unwrap_err().to_string();
+    assert!(err.contains("summary.json: the file is read-only"), "{err}");
+    assert_eq!(names(&out), ["summary.json"]);
+
+    // A directory no file can be made in (not testable as root, who can).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let locked = scratch("locked_out");
+        std::fs::create_dir_all(&locked).unwrap();
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+        if std::fs::write(locked.join("probe"), "").is_err() {
+            let err = run(&quiet_options(&csv, &locked)).unwrap_err().to_string();
+            assert!(
+                err.contains("the output directory is not writable"),
+                "{err}"
+            );
+        }
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+}

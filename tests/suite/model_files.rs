@@ -211,3 +211,138 @@ fn a_model_does_not_load_into_a_system_whose_hamiltonian_or_poisson_changed() {
         model.entropy_coefficients()
     );
 }
+
+/// A misspelt field was ignored: a model file whose `certificate` was
+/// written `certficate` loaded without its certificate, and any other
+/// typo dropped what it held without a word.
+#[test]
+fn unknown_fields_are_refused_by_name() {
+    let dir = scratch("unknown-fields");
+    let json = Model::<RigidBody>::reference().unwrap().to_json().unwrap();
+    let value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    for (field, replacing) in [("certficate", None), ("metrik", Some("metric"))] {
+        let mut edited = value.clone();
+        let object = edited.as_object_mut().unwrap();
+        let content = match replacing {
+            Some(old) => object.remove(old).unwrap(),
+            None => serde_json::json!({"lower": []}),
+        };
+        object.insert(field.to_owned(), content);
+        let text = serde_json::to_string_pretty(&edited).unwrap();
+        let err = Model::<RigidBody>::from_json(&text).unwrap_err();
+        assert!(matches!(err, Error::Json { .. }), "{err}");
+        assert!(
+            err.to_string()
+                .contains(&format!("unknown field `{field}`")),
+            "{err}"
+        );
+        let path = dir.join(format!("{field}.json"));
+        std::fs::write(&path, &text).unwrap();
+        let err = Model::<RigidBody>::load(&path).unwrap_err();
+        let message = err.to_string();
+        assert!(
+            message.contains(path.to_str().unwrap())
+                && message.contains(&format!("unknown field `{field}`")),
+            "{message}"
+        );
+    }
+}
+
+/// Refusing unknown fields must not refuse the files earlier versions
+/// wrote: the first layout had only the system, its bases and the
+/// coefficients (no region, formalism, H and Π, certificate).
+#[test]
+fn files_written_by_earlier_versions_still_load() {
+    let model = Model::<RigidBody>::reference().unwrap();
+    let json = model.to_json().unwrap();
+    let value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let first_layout = [
+        "format",
+        "version",
+        "system",
+        "state_names",
+        "entropy_degree",
+        "metric_degree",
+        "entropy_exponents",
+        "metric_exponents",
+        "entropy",
+        "metric",
+    ];
+    let object = value.as_object().unwrap();
+    let mut older = serde_json::Map::new();
+    for key in first_layout {
+        older.insert(key.to_owned(), object[key].clone());
+    }
+    let loaded =
+        Model::<RigidBody>::from_json(&serde_json::Value::Object(older).to_string()).unwrap();
+    assert_eq!(loaded.entropy_coefficients(), model.entropy_coefficients());
+    assert_eq!(loaded.metric_coefficients(), model.metric_coefficients());
+    // Every field the current version writes is read back.
+    assert_eq!(Model::<RigidBody>::from_json(&json).unwrap(), model);
+}
+
+/// `Model::load` named the file only in JSON errors: an indefinite metric,
+/// another system's file, a wrong count or format said nothing of which
+/// file; the variants are those of `from_json`, with the path added.
+#[test]
+fn every_load_error_names_the_file() {
+    let dir = scratch("named");
+    let json = Model::<RigidBody>::reference().unwrap().to_json().unwrap();
+    let value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let edit = |pointer: &str, new: serde_json::Value| {
+        let mut edited = value.clone();
+        *edited.pointer_mut(pointer).unwrap() = new;
+        if pointer.starts_with("/metric") {
+            // The certificate proves the old metric.
+            edited.as_object_mut().unwrap().remove("certificate");
+        }
+        edited.to_string()
+    };
+    let shorter = {
+        let mut entropy = value["entropy"].as_array().unwrap().clone();
+        entropy.pop();
+        serde_json::Value::Array(entropy)
+    };
+    let cases: [(&str, String, &str); 4] = [
+        (
+            "indefinite",
+            edit("/metric/0", serde_json::json!(-5.0)),
+            "metric coefficients in model file ",
+        ),
+        (
+            "short",
+            edit("/entropy", shorter),
+            "entropy coefficients in model file ",
+        ),
+        (
+            "version",
+            edit("/version", serde_json::json!(7)),
+            "invalid model file ",
+        ),
+        (
+            "other_system",
+            Model::<crate::common::Linear2d>::reference()
+                .unwrap()
+                .to_json()
+                .unwrap(),
+            "according to model file ",
+        ),
+    ];
+    for (name, text, expected) in cases {
+        let path = dir.join(format!("{name}.json"));
+        std::fs::write(&path, &text).unwrap();
+        let err = Model::<RigidBody>::load(&path).unwrap_err();
+        let message = err.to_string();
+        let named = format!("{expected}{}", path.display());
+        assert!(
+            message.contains(&named),
+            "{name}: `{named}` not in {message}"
+        );
+        let from_text = Model::<RigidBody>::from_json(&text).unwrap_err();
+        assert_eq!(
+            std::mem::discriminant(&err),
+            std::mem::discriminant(&from_text),
+            "{name}: the variant stays: {err} / {from_text}"
+        );
+    }
+}

@@ -36,8 +36,9 @@ use crate::system::MetriplecticSystem;
 #[serde(deny_unknown_fields)]
 pub struct CheckpointConfig {
     /// The checkpoint file (replaced at every save). Its directory must
-    /// exist, and a file already there must be a checkpoint: anything else
-    /// is refused rather than overwritten.
+    /// exist, and a file already there must be a whole checkpoint: anything
+    /// else, a damaged checkpoint included, is refused rather than
+    /// overwritten.
     pub path: PathBuf,
     /// Save after every `every` iterations (and always when the run stops).
     pub every: usize,
@@ -47,7 +48,11 @@ impl CheckpointConfig {
     /// Checks that `every` is at least 1 and that `path` names a file in an
     /// existing directory, so a typo fails before hours of computation, and
     /// that a file already at `path` is a checkpoint (a run replaces its
-    /// own kind of file, never the user's data or a model).
+    /// own kind of file, never the user's data or a model). A file that
+    /// declares the checkpoint format but does not read as one (truncated,
+    /// or a hand edit broke its JSON) is refused as a damaged checkpoint,
+    /// with the parser's line and column: it may be worth repairing, so
+    /// neither a new nor a resumed run replaces it.
     pub fn validate(&self) -> Result<()> {
         let invalid = |reason: String| Error::InvalidArgument {
             what: "checkpoint".to_owned(),
@@ -78,13 +83,31 @@ impl CheckpointConfig {
         }
         if let Ok(meta) = std::fs::metadata(&self.path) {
             // An empty file (made in advance, e.g. by mktemp) holds nothing.
-            if meta.len() > 0 && !is_checkpoint(&self.path) {
-                return Err(invalid(format!(
-                    "{} exists and is not a checkpoint (it starts with {:?}); \
-                     choose another path or move that file",
-                    self.path.display(),
-                    file_start(&self.path)
-                )));
+            let found = if meta.len() > 0 {
+                examine(&self.path)
+            } else {
+                Existing::Checkpoint
+            };
+            match found {
+                Existing::Checkpoint => {}
+                // Perhaps a hand edit gone wrong: the user may want to
+                // repair it, so neither a resumed nor a new run replaces it.
+                Existing::Damaged(error) => {
+                    return Err(invalid(format!(
+                        "{} is a damaged checkpoint: it declares the checkpoint format but \
+                         does not read as one ({error}); it is left as it is: repair it to \
+                         resume from it, or move or delete it to start a new run at this path",
+                        self.path.display()
+                    )))
+                }
+                Existing::Other => {
+                    return Err(invalid(format!(
+                        "{} exists and is not a checkpoint (it starts with {:?}); \
+                         choose another path or move that file",
+                        self.path.display(),
+                        file_start(&self.path)
+                    )))
+                }
             }
             // Saving would fail only after the first iterations.
             if meta.permissions().readonly() {
@@ -98,17 +121,68 @@ impl CheckpointConfig {
     }
 }
 
-/// Whether the file at `path` is a JSON object whose `format` is a
-/// checkpoint's (whatever its version, and in any field order).
-fn is_checkpoint(path: &Path) -> bool {
+/// What a non-empty file at a checkpoint path is.
+enum Existing {
+    /// A checkpoint (of this layout, whole; or of another version).
+    Checkpoint,
+    /// A file that declares the checkpoint format but does not parse as a
+    /// checkpoint (truncated, or a hand edit broke its JSON): the parser's
+    /// error, which names the line and column.
+    Damaged(serde_json::Error),
+    /// Anything else: the user's data, a model file, unreadable.
+    Other,
+}
+
+/// Tells what the file at `path` is (see [`Existing`]). A JSON object whose
+/// `format` is a checkpoint's (in any field order) is a checkpoint if it
+/// parses whole; one that does not parse is damaged if its beginning says
+/// `"format": "metriplectic-checkpoint"`.
+fn examine(path: &Path) -> Existing {
+    use std::io::{BufReader, Read};
     #[derive(Deserialize)]
     struct Tagged {
         format: String,
+        #[serde(default)]
+        version: Option<u32>,
     }
-    std::fs::File::open(path)
-        .ok()
-        .and_then(|file| serde_json::from_reader(std::io::BufReader::new(file)).ok())
-        .is_some_and(|tagged: Tagged| tagged.format == FORMAT)
+    let open = || std::fs::File::open(path).map(BufReader::new);
+    let mut start = Vec::new();
+    let declared = open()
+        .and_then(|file| file.take(4096).read_to_end(&mut start))
+        .is_ok()
+        && declares_format(&String::from_utf8_lossy(&start));
+    let Ok(file) = open() else {
+        return Existing::Other;
+    };
+    match serde_json::from_reader::<_, Tagged>(file) {
+        Ok(tagged) if tagged.format == FORMAT && tagged.version == Some(VERSION) => {
+            // A hand edit may also break a value's type: read it as `load` does.
+            match open().map(serde_json::from_reader::<_, CheckpointFile>) {
+                Ok(Err(error)) => Existing::Damaged(error),
+                Ok(Ok(_)) | Err(_) => Existing::Checkpoint,
+            }
+        }
+        // Another version's checkpoint: the run's own kind of file.
+        Ok(tagged) if tagged.format == FORMAT => Existing::Checkpoint,
+        Ok(_) => Existing::Other,
+        Err(error) if declared => Existing::Damaged(error),
+        Err(_) => Existing::Other,
+    }
+}
+
+/// Whether `text` (a file's beginning) holds `"format": "metriplectic-checkpoint"`,
+/// as every checkpoint begins.
+fn declares_format(text: &str) -> bool {
+    const KEY: &str = "\"format\"";
+    let mut rest = text;
+    while let Some(at) = rest.find(KEY) {
+        rest = &rest[at + KEY.len()..];
+        let value = rest.trim_start().strip_prefix(':').map(str::trim_start);
+        if value.is_some_and(|v| v.starts_with(&format!("\"{FORMAT}\""))) {
+            return true;
+        }
+    }
+    false
 }
 
 /// The first 40 bytes of the file at `path`, for an error message.
@@ -275,7 +349,10 @@ pub(crate) fn load<S: MetriplecticSystem>(
     let limit = size_limit(config.max_iterations);
     let text = read_capped(path, limit, "a checkpoint")?;
     let file: CheckpointFile = serde_json::from_str(&text).map_err(|source| Error::Json {
-        context: Some(path.display().to_string()),
+        context: Some(format!(
+            "checkpoint {} (damaged or edited: it cannot be resumed as it is)",
+            path.display()
+        )),
         source,
     })?;
     if file.format != FORMAT || file.version != VERSION {
@@ -363,17 +440,26 @@ pub(crate) fn load<S: MetriplecticSystem>(
     }
     // The metric is certified anew either way; a kept certificate must fit
     // the system's blocks.
-    let certified = |model: Model<S>, certificate: Option<GramCertificate>| match certificate {
-        Some(certificate) => model.with_certificate(certificate),
-        None => Ok(model),
-    };
-    let model = certified(
-        Model::<S>::new(file.entropy, file.metric)?,
-        file.certificate,
-    )?;
+    // Errors name the file and the model ("metric coefficients in the best
+    // model of checkpoint PATH: …").
+    let certified =
+        |which: &str, entropy: Vec<f64>, metric: Vec<f64>, certificate: Option<GramCertificate>| {
+            Model::<S>::new(entropy, metric)
+                .and_then(|model| match certificate {
+                    Some(certificate) => model.with_certificate(certificate),
+                    None => Ok(model),
+                })
+                .map_err(|e| {
+                    e.located(&format!(
+                        "the {which} model of checkpoint {}",
+                        path.display()
+                    ))
+                })
+        };
+    let model = certified("current", file.entropy, file.metric, file.certificate)?;
     let best = match file.best {
         Some((entropy, metric, cost)) => Some((
-            certified(Model::<S>::new(entropy, metric)?, file.best_certificate)?,
+            certified("best", entropy, metric, file.best_certificate)?,
             cost,
         )),
         None => None,
@@ -412,4 +498,25 @@ fn differing_fields(a: &IdentifyConfig, b: &IdentifyConfig) -> Vec<String> {
         fields.push("(values that print alike)".to_owned());
     }
     fields
+}
+
+#[cfg(test)]
+mod tests {
+    use super::declares_format;
+
+    #[test]
+    fn a_damaged_checkpoint_is_told_by_its_declared_format() {
+        assert!(declares_format(
+            r#"{"format":"metriplectic-checkpoint","version":3,"fing"#
+        ));
+        assert!(declares_format(
+            "{\n  \"version\": 3,\n  \"format\" :\n \"metriplectic-checkpoint\",\n"
+        ));
+        assert!(!declares_format(
+            r#"{"format":"metriplectic-model","version":1}"#
+        ));
+        assert!(!declares_format(r#"{"format":"#));
+        assert!(!declares_format("trajectory,t,q,p\n0,0,1,2\n"));
+        assert!(!declares_format(r#"{"formats":"metriplectic-checkpoint"}"#));
+    }
 }

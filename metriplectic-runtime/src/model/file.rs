@@ -21,8 +21,11 @@ const FORMAT: &str = "metriplectic-model";
 /// Version of the file layout.
 const VERSION: u32 = 1;
 
-/// The on-disk form of a model.
+/// The on-disk form of a model. Unknown fields are refused: a misspelt
+/// `certficate` would otherwise load the model without its certificate
+/// (every field ever written is still here, so older files load).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct ModelFile {
     format: String,
     version: u32,
@@ -80,7 +83,7 @@ impl Formalism {
 
 /// A [`Region`] as stored in a model file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 enum RegionFile {
     Ball { center: Vec<f64>, radius: f64 },
     Box { lower: Vec<f64>, upper: Vec<f64> },
@@ -198,8 +201,10 @@ impl<S: MetriplecticSystem> Model<S> {
     /// Parses a model written by [`Model::to_json`].
     ///
     /// Fails with [`Error::WrongSystem`] if the JSON belongs to another
-    /// system or to other bases, and with the usual length/finiteness errors
-    /// if the coefficients are malformed.
+    /// system or to other bases, with [`Error::Json`] naming the field if it
+    /// holds a field no model file has (a misspelt `certficate` would
+    /// otherwise load the model without its certificate), and with the
+    /// usual length/finiteness errors if the coefficients are malformed.
     pub fn from_json(json: &str) -> Result<Self> {
         let limit = model_file_limit::<S>();
         if json.len() as u64 > limit {
@@ -294,16 +299,28 @@ impl<S: MetriplecticSystem> Model<S> {
     ///
     /// Files larger than a model of `S` can plausibly be (1 MiB plus 256
     /// bytes per number the file holds) are refused with
-    /// [`Error::FileTooLarge`] before they are read into memory.
+    /// [`Error::FileTooLarge`] before they are read into memory. Every error
+    /// names the file: the variants are those of [`Model::from_json`], with
+    /// the path in the quantity they name (e.g. "metric coefficients in
+    /// model file PATH: K(x) is not positive semidefinite …", "invalid JSON
+    /// in PATH: unknown field `certficate` …").
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let json = read_capped(path, model_file_limit::<S>(), "a model file")?;
+        let place = format!("model file {}", path.display());
         Self::from_json(&json).map_err(|e| match e {
             Error::Json { source, .. } => Error::Json {
                 context: Some(path.display().to_string()),
                 source,
             },
-            other => other,
+            // `from_json` calls the whole file "model file".
+            Error::InvalidArgument { what, reason } if what == "model file" => {
+                Error::InvalidArgument {
+                    what: place.clone(),
+                    reason,
+                }
+            }
+            other => other.located(&place),
         })
     }
 }
