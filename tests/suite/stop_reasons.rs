@@ -154,6 +154,7 @@ fn a_metric_at_its_bound_is_reported() {
     let IdentifyWarning::MetricAtBound { eigenvalue, .. } = warning else {
         unreachable!()
     };
+    println!("{warning}");
     assert!((eigenvalue - eta).abs() <= 1e-3 * eta, "{warning}");
     assert!(
         warning.to_string().contains("SearchOptions::eta"),

@@ -278,10 +278,9 @@ impl std::fmt::Display for IdentifyWarning {
             ),
             Self::MetricAtBound { eigenvalue, eta } => write!(
                 f,
-                "the metric's largest eigenvalue on the data, {}, is at the bound K ⪯ ηI, \
-                 η = {}: the bound may have cut off the metric the data need; raise \
-                 SearchOptions::eta",
-                Num(*eigenvalue),
+                "the metric's largest eigenvalue on the data, {eigenvalue:.4e}, is at the \
+                 bound K ⪯ ηI, η = {}: the bound may have cut off the metric the data need; \
+                 raise SearchOptions::eta",
                 Num(*eta)
             ),
             Self::FailedSolves {

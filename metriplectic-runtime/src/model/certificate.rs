@@ -842,6 +842,7 @@ mod tests {
         for negative in [-1e5, -1.0, -1e-3] {
             let t = theta(&[(0, 1e15), (6, 1e-300), (12, negative)]);
             let err = check_metric::<Quadratic2d>("test", &t).unwrap_err();
+            println!("{err}");
             assert!(
                 matches!(err, Error::MetricNotPositive { eigenvalue, state: None, .. }
                     if eigenvalue < 0.0),
