@@ -37,7 +37,8 @@ use proc_macro::TokenStream;
 ///
 /// * `pub struct Name;` first, with optional doc comments, attributes and
 ///   visibility. It becomes a unit struct implementing
-///   `metriplectic_runtime::MetriplecticSystem`.
+///   `metriplectic_runtime::MetriplecticSystem`. Its `#[cfg(…)]`s (also
+///   inside `#[cfg_attr(…)]`) apply to everything generated for it.
 /// * `state (a, b, …);` the state variables, in state order.
 /// * `const NAME = expr;` a named constant: a constant expression that may use
 ///   numbers and constants declared before it. Other sections may use every
@@ -57,7 +58,8 @@ use proc_macro::TokenStream;
 ///   constant term of the entropy is dropped, as the basis has none: it
 ///   changes neither ∇S nor the dynamics) and the metric must be symmetric; a constant metric must be positive
 ///   semidefinite (checked exactly). A metric that depends on the state
-///   needs a `region` (below).
+///   needs a `region` (below). Every coefficient is at most 1e15 in
+///   magnitude, the bound `Model::MAX_COEFFICIENT` of the runtime.
 ///
 /// ## Regions: state-dependent metrics
 ///
@@ -103,7 +105,8 @@ use proc_macro::TokenStream;
 /// Π has none), or if no non-zero metric of the basis satisfies K∇H ≡ 0
 /// (without a region K is constant and usually must vanish: declare a
 /// region and a metric degree of at least 2·deg ∇H, where
-/// K(x) = c(|∇H|²I − ∇H∇Hᵀ) qualifies). A reference model must satisfy both
+/// K(x) = c(|∇H|²I − ∇H∇Hᵀ) qualifies; with one state variable nothing
+/// does, as k(x)·H′(x) ≡ 0 forces k ≡ 0). A reference model must satisfy both
 /// identities, checked exactly. At run time every search imposes both, the
 /// identified model meets them to rounding, and `Method::DiscreteGradient`
 /// simulates it with H conserved and S non-decreasing.
@@ -111,12 +114,14 @@ use proc_macro::TokenStream;
 /// # Expressions
 ///
 /// Polynomials written with numbers (`2`, `0.5`, `1e-3`: all exact
-/// rationals), state variables, constants, `+ - * /`, `^` and parentheses.
-/// `^` takes a non-negative integer exponent, binds tighter than unary minus
-/// and `*`, and is right-associative: `-q^2` is −(q²), `2*q^3` is 2(q³),
-/// `2^3^2` is 2⁹. Division is only by non-zero constant expressions. Anything
-/// else — a variable in a denominator, `q^-1`, `q^0.5`, `sin(q)`, `q.powi(2)` —
-/// is a compile error pointing at the offending tokens.
+/// rationals, without a type suffix: write `2 * q`, not `2q`), state
+/// variables, constants, `+ - * /`, `^` and parentheses. `^` takes an
+/// integer exponent, non-negative unless the base is a constant (`2^-1` is
+/// exactly 1/2), binds tighter than unary minus and `*`, and is
+/// right-associative: `-q^2` is −(q²), `2*q^3` is 2(q³), `2^3^2` is 2⁹.
+/// Division is only by non-zero constant expressions. Anything else — a
+/// variable in a denominator, `q^-1`, `q^0.5`, `sin(q)`, `q.powi(2)` — is a
+/// compile error pointing at the offending tokens.
 ///
 /// # What it generates
 ///
@@ -128,16 +133,21 @@ use proc_macro::TokenStream;
 ///   `#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]` (path
 ///   qualified, `::core::fmt::Debug` and so on). A trait you derive yourself,
 ///   e.g. `#[derive(Clone)]`, is left out of the generated derive rather than
-///   derived twice. The trait needs `Debug`, `Copy` and `Default`.
+///   derived twice; one you derive under `#[cfg_attr(P, derive(…))]` is
+///   derived by the macro under `#[cfg_attr(not(P), derive(…))]`. The trait
+///   needs `Debug`, `Copy` and `Default`.
 /// * A hidden module `__metriplectic_<Name>` with straight-line code for H,
 ///   ∇H, Π, the monomials (graded lexicographic, each one multiplication from
 ///   a lower one, computing only as many degrees as the caller asks for) and
-///   the entropy gradient ∇S = J(x)ᵀψ as sums over named monomials.
+///   the entropy gradient ∇S = J(x)ᵀψ as sums over named monomials. It
+///   allows `non_snake_case` only if a state variable's name needs it, and
+///   `clippy::suboptimal_flops` only if it adds products, so that a crate
+///   forbidding these lints can use the macro.
 /// * `impl metriplectic_runtime::MetriplecticSystem`: the exponent tables (by
 ///   degree, then larger exponents of earlier variables first), the entropy
 ///   Jacobian as a table, the SOS matching tables (full and facially
 ///   reduced), the reference coefficients, and methods forwarding to the
-///   module. Everything else (features, Jacobian, metric, the rows of the
+///   module; with `#[allow(deprecated)]` if the struct is `#[deprecated]`. Everything else (features, Jacobian, metric, the rows of the
 ///   searches) is the trait's provided code, shared by all systems.
 /// * With a `region`, `REGION_CERTIFICATE`; with `classical;`, `CLASSICAL`.
 ///   Their tables are named constants with docs in the module

@@ -419,3 +419,34 @@ fn colliding_state_names_generate_correct_code() {
     check_features::<Awkward>(10);
     check_blocks::<Awkward>(11);
 }
+
+metriplectic! {
+    /// A reference model whose coefficients reach the bound the macro
+    /// checks them against at compile time (`MAX_COEFFICIENT` in
+    /// `metriplectic-macros/codegen/src/analysis/reference.rs`).
+    struct AtTheBound;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (q^2 + p^2);
+    entropy degree 2;
+    metric degree 0;
+    reference {
+        entropy = -1e15 * q^2 + 1e15 * q * p - 1e15 * p^2;
+        metric = [[1e15, 0], [0, 1e15]];
+    }
+}
+
+/// The macro refuses reference coefficients beyond ±1e15 at compile time
+/// (`tests/ui/reference_coefficient_too_large.rs`) because
+/// `Model::reference()` refuses them at run time; the runtime must accept
+/// everything up to that bound, so that the two agree.
+#[test]
+fn reference_coefficients_up_to_the_bound_are_accepted() {
+    assert_eq!(Model::<AtTheBound>::MAX_COEFFICIENT, 1e15);
+    let model = Model::<AtTheBound>::reference().expect("coefficients at the bound");
+    assert_eq!(
+        model.entropy_coefficients(),
+        &[0.0, 0.0, -1e15, 1e15, -1e15]
+    );
+    assert_eq!(model.metric_coefficients(), &[1e15, 0.0, 1e15]);
+}

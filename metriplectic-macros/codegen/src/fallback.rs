@@ -8,7 +8,7 @@ use proc_macro2::TokenStream;
 use quote::quote;
 use syn::ext::IdentExt;
 
-use crate::emit::derives;
+use crate::emit::{attributes, derives};
 use crate::parse::SystemDef;
 
 /// The stand-in items, or nothing if the struct's name did not parse.
@@ -18,6 +18,8 @@ pub fn fallback(def: &SystemDef) -> TokenStream {
     };
     let (attrs, vis) = (&def.attrs, &def.vis);
     let (derive, _) = derives(attrs);
+    // The impl exists where the struct does, and may name a deprecated one.
+    let impl_attrs = attributes::outer(attrs, true);
     let name_str = name.unraw().to_string();
     let state_names: Vec<String> = def
         .state
@@ -39,6 +41,7 @@ pub fn fallback(def: &SystemDef) -> TokenStream {
         #derive
         #vis struct #name;
 
+        #impl_attrs
         impl ::metriplectic_runtime::MetriplecticSystem for #name {
             const NAME: &'static ::core::primitive::str = #name_str;
             const DIM: ::core::primitive::usize = #n;

@@ -154,8 +154,9 @@ impl Rational {
     }
 
     /// Parses the decimal digits of a Rust literal: `12`, `0.25`, `1e-3`,
-    /// `2.5E+4` (underscores already removed). `None` if malformed.
-    pub fn parse_decimal(text: &str) -> Exact<Option<Rational>> {
+    /// `2.5E+4` (underscores already removed). `Ok(None)` if malformed;
+    /// `Err` says why a well-formed literal is not an `i128` rational.
+    pub fn parse_decimal(text: &str) -> Result<Option<Rational>, DecimalRange> {
         let (mantissa, exponent) = match text.find(['e', 'E']) {
             Some(at) => (&text[..at], Some(&text[at + 1..])),
             None => (text, None),
@@ -181,38 +182,65 @@ impl Rational {
             };
             digits.push(d);
         }
+        // value = digits · 10^scale
         let Some(mut scale) = i64::try_from(frac_part.len())
             .ok()
             .and_then(|digits| exponent.checked_sub(digits))
         else {
-            return Err(Overflow);
+            return Err(DecimalRange::Small);
         };
         // Trailing zeros move into the exponent, so that `1.000…0` with 40
         // digits or `0e400` is not an overflow: only values that are not
         // representable are.
         while digits.last() == Some(&0) {
             digits.pop();
-            scale = scale.checked_add(1).ok_or(Overflow)?;
+            scale = scale.checked_add(1).ok_or(DecimalRange::Large)?;
         }
+        // Leading zeros are no significant digits either (`0.001`).
+        let leading = digits.iter().take_while(|&&d| d == 0).count();
+        let digits = &digits[leading..];
         if digits.is_empty() {
             return Ok(Some(Rational::ZERO));
         }
         let mut num: i128 = 0;
-        for d in digits {
+        for &d in digits {
             num = num
                 .checked_mul(10)
                 .and_then(|n| n.checked_add(i128::from(d)))
-                .ok_or(Overflow)?;
+                .ok_or(if scale >= 0 {
+                    DecimalRange::Large
+                } else {
+                    DecimalRange::Digits
+                })?;
         }
-        let power =
-            Rational::integer(10).pow(scale.unsigned_abs().try_into().map_err(|_| Overflow)?)?;
+        let out_of_range = if scale >= 0 {
+            DecimalRange::Large
+        } else {
+            DecimalRange::Small
+        };
+        let power = u32::try_from(scale.unsigned_abs())
+            .ok()
+            .and_then(|k| Rational::integer(10).pow(k).ok())
+            .ok_or(out_of_range)?;
         let value = Rational::integer(num);
         if scale >= 0 {
-            value.mul(power).map(Some)
+            value.mul(power).map(Some).map_err(|_| out_of_range)
         } else {
-            value.div(power)
+            value.div(power).map_err(|_| out_of_range)
         }
     }
+}
+
+/// Why a decimal literal is not an exact `i128` rational.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DecimalRange {
+    /// Its magnitude is beyond `i128` (about 1.7e38).
+    Large,
+    /// It has more than 38 decimal places: its denominator 10^k is beyond
+    /// `i128`.
+    Small,
+    /// Its significant digits do not fit an `i128` numerator.
+    Digits,
 }
 
 impl fmt::Display for Rational {
@@ -589,11 +617,16 @@ mod tests {
         assert_eq!(p("1E+2"), Rational::integer(100));
         assert_eq!(p("1."), Rational::ONE);
         assert_eq!(Rational::parse_decimal("1x").unwrap(), None);
-        assert_eq!(Rational::parse_decimal("1e400"), Err(Overflow));
+        assert_eq!(Rational::parse_decimal("1e400"), Err(DecimalRange::Large));
         assert_eq!(
             Rational::parse_decimal("1.5e-9223372036854775808"),
-            Err(Overflow)
+            Err(DecimalRange::Small)
         );
+        assert_eq!(Rational::parse_decimal("1e-400"), Err(DecimalRange::Small));
+        let digits = format!("1.{}1", "0".repeat(40));
+        assert_eq!(Rational::parse_decimal(&digits), Err(DecimalRange::Digits));
+        let large = format!("1{}1", "0".repeat(40));
+        assert_eq!(Rational::parse_decimal(&large), Err(DecimalRange::Large));
         // Zeros are not digits to carry: these are small, or zero, and
         // representable.
         assert_eq!(p("0e400"), Rational::ZERO);
@@ -603,8 +636,9 @@ mod tests {
         let quarter = format!("25{}e-60", "0".repeat(58));
         assert_eq!(p(&quarter), r(1, 4));
         assert_eq!(p("1000e-3"), Rational::ONE);
+        assert_eq!(p("0.0025"), r(1, 400));
         // …but a denominator of 10³⁹ is not.
-        assert_eq!(Rational::parse_decimal("1e-39"), Err(Overflow));
+        assert_eq!(Rational::parse_decimal("1e-39"), Err(DecimalRange::Small));
     }
 
     #[test]

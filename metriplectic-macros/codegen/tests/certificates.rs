@@ -81,6 +81,37 @@ fn ball_mistakes() {
     );
 }
 
+/// A forgotten comma between a region's parameters is one error at the
+/// parameter after it, and both parameters still count: no "the ball has
+/// no radius" as well (as there was).
+#[test]
+fn missing_commas_between_region_parameters() {
+    let all = messages(oscillator(quote! {
+        region ball(center = [0, 0] radius = 1);
+    }));
+    assert_messages(
+        &all,
+        &["expected `,` before `radius`: the ball's parameters are separated by commas"],
+    );
+    let all = messages(oscillator(quote! {
+        region ball(radius = 1 center = [0, 0, 0]);
+    }));
+    assert_messages(
+        &all,
+        &[
+            "expected `,` before `center`",
+            "the ball's centre has 3 coordinates, but the state has 2",
+        ],
+    );
+    let all = messages(oscillator(quote! {
+        region box(q in [-1, 1] p in [-2, 2]);
+    }));
+    assert_messages(
+        &all,
+        &["expected `,` before `p`: the intervals are separated by commas"],
+    );
+}
+
 /// Regions whose constraints lose their meaning when their coefficients
 /// are rounded to `f64` (the certificate tables carry them so): a ball of
 /// radius 1 at 10⁸ rounds to g′ = −(q − 10⁸)², which certifies any K; a

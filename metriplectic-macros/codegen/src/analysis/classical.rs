@@ -322,6 +322,18 @@ fn no_metric_reason(inputs: &Inputs) -> String {
     let needed = 2 * gradient_degree;
     let s = inputs.bases.metric_degree;
     let example = "K(x) = c(|∇H|²I − ∇H∇Hᵀ) is a sum of squares and satisfies K∇H ≡ 0";
+    if n == 1 {
+        // K is a polynomial k(x) and K∇H = k(x)·H′(x); polynomials have no
+        // zero divisors, and H′ ≢ 0 (else every K would do). The example
+        // above is identically zero in one variable: nothing helps.
+        let name = &inputs.names[0];
+        return format!(
+            "with one state variable the metric is a single polynomial k({name}), and \
+             K∇H = k({name})·dH/d{name} ≡ 0 forces k ≡ 0 because dH/d{name} is not zero; so a \
+             one-state system in the classical form has no dissipation at all, whatever the \
+             region and the metric degree; remove `classical;` for the generalized form"
+        );
+    }
     if !inputs.region {
         format!(
             "without a region the metric is constant (0 ⪯ K(x) ⪯ ηI on all of Rⁿ forces it), and \
@@ -734,6 +746,47 @@ mod tests {
         })
         .expect("valid");
         assert!(system.classical.is_some());
+    }
+
+    /// In one variable K∇H = k(x)·H′(x) ≡ 0 forces k ≡ 0: no region or
+    /// metric degree helps, so none is suggested (the 1-D example
+    /// c(|∇H|²I − ∇H∇Hᵀ) is identically 0).
+    #[test]
+    fn a_one_state_classical_system_has_no_metric() {
+        for extra in [
+            quote!(metric degree 0;),
+            quote!(metric degree 4; region ball(radius = 1);),
+        ] {
+            let errors = system(quote! {
+                struct Line;
+                state (q);
+                poisson = [[0]];
+                hamiltonian = 0.5 * q^2;
+                entropy degree 2;
+                #extra
+                classical;
+            })
+            .expect_err("K = 0");
+            assert_eq!(errors.len(), 1, "{errors:#?}");
+            assert!(
+                errors[0].contains("with one state variable the metric is a single polynomial")
+                    && errors[0].contains("no dissipation at all")
+                    && !errors[0].contains("declare a region")
+                    && !errors[0].contains("raise the metric degree"),
+                "{errors:#?}"
+            );
+        }
+        // A constant H leaves every metric admissible.
+        let system = system(quote! {
+            struct Still;
+            state (q);
+            poisson = [[0]];
+            hamiltonian = 1;
+            entropy degree 2;
+            metric degree 0;
+            classical;
+        });
+        assert!(system.is_ok(), "{system:?}");
     }
 
     #[test]

@@ -387,6 +387,50 @@ mod tests {
         );
     }
 
+    /// `Model::reference()` refuses coefficients beyond ±1e15 at run time;
+    /// the macro refuses them at compile time, at the expression or entry,
+    /// naming the coefficient. The bound itself and the dropped constant of
+    /// the entropy are fine.
+    #[test]
+    fn reference_coefficients_are_bounded() {
+        let system = |entropy: TokenStream, metric: TokenStream| {
+            crate::try_expand(quote! {
+                struct S; state (q, p);
+                poisson = [[0, 1], [-1, 0]];
+                hamiltonian = q^2; entropy degree 2; metric degree 0;
+                reference { entropy = #entropy; metric = #metric; }
+            })
+        };
+        let all = system(quote!(-1e16 * q ^ 2 + p ^ 2), quote!([[1e20, 0], [0, 1]]))
+            .expect_err("too large")
+            .messages();
+        assert_eq!(all.len(), 2, "{all:#?}");
+        assert!(
+            all[0].starts_with(
+                "the coefficient of `q^2` in the reference entropy is -1e16, beyond ±1e15"
+            ),
+            "{all:#?}"
+        );
+        assert!(
+            all[1].starts_with(
+                "the constant term in reference metric entry K[0][0] is 1e20, beyond ±1e15"
+            ),
+            "{all:#?}"
+        );
+        let off_diagonal = system(
+            quote!(-q ^ 2),
+            quote!([[1e16, -2e15 * 1.1], [-2.2e15, 1e16]]),
+        )
+        .expect_err("too large")
+        .messages();
+        assert_eq!(off_diagonal.len(), 3, "{off_diagonal:#?}");
+        assert!(
+            off_diagonal[1].contains("K[0][1] is -2.2e15"),
+            "{off_diagonal:#?}"
+        );
+        assert!(system(quote!(-1e15 * q ^ 2 + 1e30), quote!([[1e15, 0], [0, 1]])).is_ok());
+    }
+
     /// What `macro_rules!` forwards: `$vis:vis`, `$e:expr` and
     /// `$l:literal` fragments arrive in invisible groups.
     #[test]

@@ -10,6 +10,16 @@ use crate::diagnostics::Diagnostics;
 use crate::parse::{Matrix, Reference, SpanRange};
 use crate::polynomial::{Polynomial, Rational};
 
+/// The largest |coefficient| of a reference model (after rounding to the
+/// `f64` the tables hold): `Model::reference()` refuses coefficients beyond
+/// `metriplectic_runtime::Model::MAX_COEFFICIENT`, 1e15, at run time, so
+/// they are refused here at compile time instead. The runtime depends on
+/// this crate, not the other way round, so the bound is repeated here; keep
+/// the two equal (`tests/suite/generated_code.rs`,
+/// `reference_coefficients_up_to_the_bound_are_accepted`, checks that the
+/// runtime accepts this bound).
+pub const MAX_COEFFICIENT: f64 = 1e15;
+
 /// The declared reference model in the system's bases.
 #[derive(Debug)]
 pub struct ReferenceModel {
@@ -48,7 +58,16 @@ pub fn check_reference(
                 )));
                 None
             }
-            _ => Some(entropy),
+            // The constant term is dropped from ψ: only the others count.
+            _ => coefficients_within_bound(
+                &entropy,
+                |e| e.iter().any(|&k| k > 0),
+                expr.span(),
+                "the reference entropy",
+                scope.state_names(),
+                diagnostics,
+            )
+            .then_some(entropy),
         }
     });
     let metric = reference
@@ -110,6 +129,20 @@ fn check_metric(
                     )));
                 }
             }
+            // θ holds the upper triangle (a symmetric metric's other half
+            // is the same).
+            if j >= i
+                && !coefficients_within_bound(
+                    entry,
+                    |_| true,
+                    matrix.entry_span(i, j),
+                    &format!("reference metric entry K[{i}][{j}]"),
+                    names,
+                    diagnostics,
+                )
+            {
+                valid = false;
+            }
             if j > i && *entry != metric[j * n + i] {
                 valid = false;
                 diagnostics.push(matrix.entry_span(i, j).to(matrix.entry_span(j, i)).error(
@@ -130,6 +163,48 @@ fn check_metric(
         valid = check_definiteness(&metric, matrix, names, region, diagnostics);
     }
     valid.then_some(metric)
+}
+
+/// Whether every coefficient of `poly` on the monomials `counted` selects
+/// is within ±[`MAX_COEFFICIENT`]; records an error at `span`, naming the
+/// largest one, if not.
+fn coefficients_within_bound(
+    poly: &Polynomial,
+    counted: impl Fn(&[u32]) -> bool,
+    span: SpanRange,
+    what: &str,
+    names: &[String],
+    diagnostics: &mut Diagnostics,
+) -> bool {
+    let beyond: Vec<(&Vec<u32>, f64)> = poly
+        .terms()
+        .filter(|(e, _)| counted(e))
+        .map(|(e, c)| (e, c.to_f64()))
+        .filter(|(_, c)| c.abs() > MAX_COEFFICIENT)
+        .collect();
+    let Some(&(exponents, largest)) = beyond
+        .iter()
+        .max_by(|(_, a), (_, b)| a.abs().total_cmp(&b.abs()))
+    else {
+        return true;
+    };
+    let term = if exponents.iter().all(|&k| k == 0) {
+        "constant term".to_string()
+    } else {
+        let monomial = Polynomial::monomial(exponents.clone(), Rational::ONE);
+        format!("coefficient of `{}`", monomial.display(names))
+    };
+    let others = match beyond.len() {
+        1 => String::new(),
+        count => format!(" ({count} of its coefficients are beyond the bound)"),
+    };
+    diagnostics.push(span.error(format!(
+        "the {term} in {what} is {largest:e}, beyond ±{MAX_COEFFICIENT:e}, the largest \
+         coefficient a model accepts (`Model::MAX_COEFFICIENT`: beyond it the free energy and its \
+         rate overflow `f64` at ordinary states), so `Model::reference()` would fail{others}; \
+         write the model with smaller coefficients, e.g. in rescaled state variables"
+    )));
+    false
 }
 
 /// Whether the reference metric is positive semidefinite, as far as the

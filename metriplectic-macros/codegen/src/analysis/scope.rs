@@ -288,6 +288,14 @@ impl Scope {
                 let k = self.exponent(exponent, context, diagnostics);
                 let b = self.polynomial(base, context, diagnostics);
                 let (k, b) = (k?, b?);
+                // A negative power of a constant is a constant: `2^-1` = 1/2.
+                let (b, k) = match u32::try_from(k) {
+                    Ok(k) => (b, k),
+                    Err(_) => {
+                        let inverse = reciprocal(&b, k, base, exponent, diagnostics)?;
+                        (Polynomial::constant(n, inverse), k.unsigned_abs())
+                    }
+                };
                 let degree = b.degree().saturating_mul(k);
                 let terms_bound = if b.term_count() <= 1 {
                     1
@@ -307,13 +315,14 @@ impl Scope {
         }
     }
 
-    /// The value of an exponent: a constant non-negative integer.
+    /// The value of an exponent: a constant integer, negative only for a
+    /// constant base (checked by the caller).
     fn exponent(
         &self,
         expr: &Expr,
         context: Context,
         diagnostics: &mut Diagnostics,
-    ) -> Option<u32> {
+    ) -> Option<i32> {
         let span = expr.span();
         if self.mentions_state(expr) {
             diagnostics.push(span.error(
@@ -327,14 +336,13 @@ impl Scope {
             .as_constant()
             .unwrap_or(Rational::ZERO);
         let result = match value.as_integer() {
-            Some(k) if k < 0 => Err(span.error(format!(
-                "negative exponent {value} is not polynomial; only non-negative integer \
-                 exponents are allowed (divide by a constant instead, or multiply through)"
-            ))),
             Some(k) if k > MAX_EXPONENT => Err(span.error(format!(
                 "exponent {value} is too large; at most {MAX_EXPONENT} is supported"
             ))),
-            Some(k) => u32::try_from(k).map_err(|_| span.error("exponent out of range")),
+            Some(k) if k < -MAX_EXPONENT => Err(span.error(format!(
+                "exponent {value} is too large in magnitude; at most {MAX_EXPONENT} is supported"
+            ))),
+            Some(k) => i32::try_from(k).map_err(|_| span.error("exponent out of range")),
             None => Err(span.error(format!(
                 "fractional exponent {value} is not polynomial; only non-negative integer \
                  exponents are allowed, e.g. `q^2`"
@@ -405,6 +413,31 @@ impl Scope {
         }
         valid.then_some(out)
     }
+}
+
+/// 1/b for `b^k` with a negative `k`: only a non-zero constant has a
+/// polynomial (constant) negative power.
+fn reciprocal(
+    b: &Polynomial,
+    k: i32,
+    base: &Expr,
+    exponent: &Expr,
+    diagnostics: &mut Diagnostics,
+) -> Option<Rational> {
+    let Some(constant) = b.as_constant() else {
+        diagnostics.push(exponent.span().error(format!(
+            "negative exponent {k} is not polynomial; only non-negative integer \
+             exponents are allowed (divide by a constant instead, or multiply through)"
+        )));
+        return None;
+    };
+    let inverse = exact(Rational::ONE.div(constant), base.span(), diagnostics)?;
+    if inverse.is_none() {
+        diagnostics.push(base.span().to(exponent.span()).error(format!(
+            "0 cannot be raised to the negative power {k}: that divides by zero"
+        )));
+    }
+    inverse
 }
 
 /// `value`, or `None` after recording its overflow at `span`.
@@ -513,6 +546,10 @@ pub mod tests {
         assert_eq!(value("1 - q - q", 1.0), -1.0);
         assert_eq!(value("12 / 3 / 2", 0.0), 2.0);
         assert_eq!(value("q^(1+1)", 3.0), 9.0);
+        // A constant base may have a negative exponent: exactly 1/2ᵏ.
+        assert_eq!(value("2^-1 * q", 3.0), 1.5);
+        assert_eq!(value("-2^-2", 0.0), -0.25);
+        assert_eq!(value("(1/3)^-2", 0.0), 9.0);
     }
 
     #[test]
@@ -533,6 +570,8 @@ pub mod tests {
         let message = |t: &str| poly(t, &names).unwrap_err().to_string();
         assert!(message("1 / q").contains("only constant denominators"));
         assert!(message("q^-1").contains("negative exponent"));
+        assert!(message("(q - q)^-1").contains("divides by zero"));
+        assert!(message("2^-65").contains("too large in magnitude"));
         assert!(message("q^0.5").contains("fractional exponent"));
         assert!(message("q^(1/2)").contains("fractional exponent"));
         assert!(message("q^p").contains("depends on the state"));

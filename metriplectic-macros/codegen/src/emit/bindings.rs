@@ -14,7 +14,7 @@
 use std::collections::HashSet;
 
 use proc_macro2::{Ident, Span, TokenStream};
-use quote::{format_ident, quote};
+use quote::quote;
 use syn::ext::IdentExt;
 
 use crate::analysis::System;
@@ -25,8 +25,24 @@ pub fn local(name: &str) -> Ident {
 }
 
 /// `__metriplectic_Oscillator`: the hidden module with the evaluation code.
+///
+/// Spanned at the macro call (located at the type's name, where errors
+/// about it point): not being the user's token, its camel-case part is not
+/// linted as a module name, so crates that forbid `non_snake_case` can use
+/// the macro.
 pub fn module_name(system: &Ident) -> Ident {
-    format_ident!("__metriplectic_{}", system.unraw())
+    Ident::new(
+        &format!("__metriplectic_{}", system.unraw()),
+        Span::call_site().located_at(system.span()),
+    )
+}
+
+/// Whether rustc's `non_snake_case` lint accepts `name` as the name of a
+/// variable (its `is_snake_case`): no upper-case letter, and no `__` once
+/// leading and trailing underscores are trimmed.
+pub fn is_snake_case(name: &str) -> bool {
+    let name = name.trim_matches('_');
+    !name.contains("__") && !name.chars().any(char::is_uppercase)
 }
 
 /// `let &[q, _] = x else { panic!(…) };` with `_` for unused variables:

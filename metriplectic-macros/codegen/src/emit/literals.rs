@@ -108,6 +108,27 @@ fn signed_terms(poly: &Polynomial, state: &[Ident]) -> Vec<TokenStream> {
     out
 }
 
+/// Whether [`expression`] writes `poly` as a sum (or difference) with a
+/// product among its terms, `a * b + c`: what clippy's `suboptimal_flops`
+/// would rewrite with `mul_add`.
+pub fn adds_products(poly: &Polynomial) -> bool {
+    poly.term_count() > 1
+        && poly.terms().any(|(exponents, coefficient)| {
+            let factors: u32 = exponents
+                .iter()
+                .map(|&k| match k {
+                    0 => 0,
+                    // `q * q`
+                    2 => 2,
+                    // `q` or `q.powi(k)`
+                    _ => 1,
+                })
+                .sum();
+            let scaled = coefficient.to_f64().abs() != 1.0;
+            factors > 1 || (factors == 1 && scaled)
+        })
+}
+
 /// A polynomial as an array element: parenthesised unless it is a number, a
 /// lone (possibly negated) variable or a block of statements, because clippy's
 /// `possible_missing_comma` misreads binary expressions in macro-generated

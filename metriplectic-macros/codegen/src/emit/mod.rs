@@ -3,11 +3,13 @@
 //! Three items: the struct (`struct_item`), a hidden evaluation module with
 //! straight-line code for H, ∇H, Π, the monomials and the entropy gradient
 //! (`evaluation`), and the trait impl with the tables (`trait_impl`,
-//! `tables`). Everything that is the same for all systems — features,
-//! Jacobian, metric value, the rows of the searches — is a provided method
-//! of `MetriplecticSystem` and is not generated. `bindings` explains why no
+//! `tables`); the struct's `#[cfg]`s go on all three (`attributes`).
+//! Everything that is the same for all systems — features, Jacobian, metric
+//! value, the rows of the searches — is a provided method of
+//! `MetriplecticSystem` and is not generated. `bindings` explains why no
 //! name in the generated code can clash with a user's name.
 
+pub(crate) mod attributes;
 mod bindings;
 mod certificate;
 mod evaluation;
@@ -45,11 +47,15 @@ pub fn emit(system: &System) -> TokenStream {
     let straight_gradient = jacobian.len() <= STRAIGHT_GRADIENT_MAX_TERMS;
     let docs = struct_item::docs(system);
     let item = struct_item::struct_item(&system.attrs, &system.vis, &system.name, &docs);
-    let module = evaluation::module(system, &jacobian, straight_gradient);
+    // The module does not name the type; the impl does.
+    let module_attrs = attributes::outer(&system.attrs, false);
+    let impl_attrs = attributes::outer(&system.attrs, true);
+    let module = evaluation::module(system, &jacobian, straight_gradient, &module_attrs);
     let implementation = trait_impl::trait_impl(system, &jacobian, straight_gradient);
     quote! {
         #item
         #module
+        #impl_attrs
         #implementation
     }
 }

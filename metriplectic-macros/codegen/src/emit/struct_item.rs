@@ -4,8 +4,9 @@
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 use syn::punctuated::Punctuated;
-use syn::{Attribute, Token, Visibility};
+use syn::{Attribute, Meta, Token, Visibility};
 
+use super::attributes;
 use super::bindings;
 use super::certificate;
 use super::literals::doc;
@@ -26,43 +27,118 @@ const DERIVES: [(&str, &str); 7] = [
     ("Hash", "::core::hash::Hash"),
 ];
 
-/// Names of the traits the user's attributes derive already (last path
-/// segment: `Clone` for `#[derive(std::clone::Clone)]`).
-fn derived_by_user(attrs: &[Attribute]) -> Vec<String> {
-    let mut names = Vec::new();
-    for attr in attrs.iter().filter(|a| a.path().is_ident("derive")) {
+/// The traits the user's attributes derive, by name (last path segment:
+/// `Clone` for `#[derive(std::clone::Clone)]`), each with the condition of
+/// the `cfg_attr` it is derived under (`None`: always).
+fn derived_by_user(attrs: &[Attribute]) -> Vec<(String, Option<TokenStream>)> {
+    let mut derived = Vec::new();
+    for attr in attributes::effective(attrs)
+        .iter()
+        .filter(|a| a.is("derive"))
+    {
         // A malformed derive is rustc's to report, on the user's tokens.
+        let Meta::List(list) = &attr.meta else {
+            continue;
+        };
         if let Ok(paths) =
-            attr.parse_args_with(Punctuated::<syn::Path, Token![,]>::parse_terminated)
+            list.parse_args_with(Punctuated::<syn::Path, Token![,]>::parse_terminated)
         {
-            names.extend(
-                paths
-                    .iter()
-                    .filter_map(|p| p.segments.last().map(|s| s.ident.to_string())),
-            );
+            derived.extend(paths.iter().filter_map(|p| {
+                let name = p.segments.last()?.ident.to_string();
+                Some((name, attr.condition()))
+            }));
         }
     }
-    names
+    derived
 }
 
-/// `#[derive(…)]` with the derives the user has not written, and their
-/// names for the docs. Deriving one twice would be a conflict.
-pub fn derives(attrs: &[Attribute]) -> (TokenStream, Vec<&'static str>) {
-    let user = derived_by_user(attrs);
-    let missing: Vec<(&str, &str)> = DERIVES
-        .into_iter()
-        .filter(|(name, _)| !user.iter().any(|u| u == name))
-        .collect();
-    if missing.is_empty() {
-        return (TokenStream::new(), Vec::new());
+/// A trait of `DERIVES` the macro derives.
+struct Missing {
+    name: &'static str,
+    path: &'static str,
+    /// The conditions of the user's `cfg_attr`s that derive it: the macro
+    /// derives it where none holds (always, if there is none).
+    user_conditions: Vec<TokenStream>,
+}
+
+impl Missing {
+    /// `not(P)` or `not(any(P, Q))`; `None` to derive it always.
+    fn condition(&self) -> Option<TokenStream> {
+        match self.user_conditions.as_slice() {
+            [] => None,
+            [one] => Some(quote!(not(#one))),
+            many => Some(quote!(not(any(#(#many),*)))),
+        }
     }
-    let paths = missing
-        .iter()
-        .filter_map(|(_, path)| syn::parse_str::<syn::Path>(path).ok());
-    (
-        quote!(#[derive(#(#paths),*)]),
-        missing.iter().map(|(name, _)| *name).collect(),
-    )
+}
+
+/// The derive attributes for the traits the user does not derive, and
+/// their names for the docs (`None` if there is none). Deriving one twice
+/// would be a conflict, so a trait the user derives is left out, and one the
+/// user derives under a `cfg_attr` condition P is derived here under
+/// `not(P)`, `#[cfg_attr(not(P), derive(…))]`: either way the struct has it
+/// exactly once.
+pub fn derives(attrs: &[Attribute]) -> (TokenStream, Option<String>) {
+    let user = derived_by_user(attrs);
+    let missing: Vec<Missing> = DERIVES
+        .into_iter()
+        .filter_map(|(name, path)| {
+            let mut user_conditions = Vec::new();
+            for (_, condition) in user.iter().filter(|(u, _)| u == name) {
+                // Derived by the user in every configuration.
+                user_conditions.push(condition.clone()?);
+            }
+            Some(Missing {
+                name,
+                path,
+                user_conditions,
+            })
+        })
+        .collect();
+    // One attribute per condition, the unconditional one first, each in the
+    // order of `DERIVES`.
+    let mut groups: Vec<(String, Option<TokenStream>, Vec<syn::Path>)> = Vec::new();
+    for trait_ in &missing {
+        let condition = trait_.condition();
+        let key = condition
+            .as_ref()
+            .map(ToString::to_string)
+            .unwrap_or_default();
+        let Ok(path) = syn::parse_str::<syn::Path>(trait_.path) else {
+            continue;
+        };
+        match groups.iter_mut().find(|(k, _, _)| *k == key) {
+            Some((_, _, paths)) => paths.push(path),
+            None => groups.push((key, condition, vec![path])),
+        }
+    }
+    groups.sort_by_key(|(key, _, _)| !key.is_empty());
+    let tokens = groups
+        .into_iter()
+        .map(|(_, condition, paths)| {
+            attributes::conditional(condition, quote!(derive(#(#paths),*)))
+        })
+        .collect();
+    let names = |conditional: bool| {
+        missing
+            .iter()
+            .filter(|t| t.user_conditions.is_empty() != conditional)
+            .map(|t| format!("`{}`", t.name))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (always, unless_user) = (names(false), names(true));
+    let docs = match (always.is_empty(), unless_user.is_empty()) {
+        (true, true) => None,
+        (false, true) => Some(always),
+        (true, false) => Some(format!(
+            "where your `cfg_attr`s do not derive them, {unless_user}"
+        )),
+        (false, false) => Some(format!(
+            "{always} and, where your `cfg_attr`s do not derive them, {unless_user}"
+        )),
+    };
+    (tokens, docs)
 }
 
 /// The struct item with the user's attributes and visibility.
@@ -129,11 +205,9 @@ pub fn docs(system: &System) -> Vec<String> {
         ));
     }
     docs.extend(certificate_docs(system));
-    let (_, derived) = derives(&system.attrs);
-    if !derived.is_empty() {
+    if let (_, Some(derived)) = derives(&system.attrs) {
         docs.push(format!(
-            "* Derives `{}` (the trait needs `Debug`, `Copy` and `Default`).",
-            derived.join("`, `")
+            "* Derives {derived} (the trait needs `Debug`, `Copy` and `Default`)."
         ));
     }
     docs.push(format!(

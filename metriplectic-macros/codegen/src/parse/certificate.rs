@@ -68,6 +68,41 @@ fn piece_range(piece: &Piece) -> SpanRange {
     }
 }
 
+/// The comma-separated pieces of `group`, also split before each token at
+/// which `starts` says a new piece begins (a parameter's name and its `=`,
+/// an interval's variable and its `in`): a missing comma costs one error
+/// there, and both pieces are still parsed.
+fn pieces(
+    group: &Group,
+    starts: impl Fn(&[TokenTree]) -> bool,
+    what: &str,
+    example: &str,
+    diagnostics: &mut Diagnostics,
+) -> Vec<Piece> {
+    let mut out = Vec::new();
+    for piece in split_commas(group) {
+        let mut tokens = piece.tokens;
+        while let Some(at) = (1..tokens.len()).find(|&i| starts(&tokens[i..])) {
+            let rest = tokens.split_off(at);
+            let next = rest[0].span();
+            diagnostics.push(syn::Error::new(
+                next,
+                format!(
+                    "expected `,` before `{}`: {what} are separated by commas, e.g. {example}",
+                    rest[0]
+                ),
+            ));
+            out.push(Piece { tokens, end: next });
+            tokens = rest;
+        }
+        out.push(Piece {
+            tokens,
+            end: piece.end,
+        });
+    }
+    out
+}
+
 /// An expression made of `tokens`, recording its error.
 fn expression(tokens: &[TokenTree], end: Span, diagnostics: &mut Diagnostics) -> Option<Expr> {
     diagnostics.record(ExprParser::new(tokens.to_vec(), end).parse_all())
@@ -77,7 +112,11 @@ fn expression(tokens: &[TokenTree], end: Span, diagnostics: &mut Diagnostics) ->
 fn ball(group: &Group, diagnostics: &mut Diagnostics) -> Option<RegionShape> {
     let mut center: Option<Option<Vector>> = None;
     let mut radius: Option<Option<Expr>> = None;
-    for piece in split_commas(group) {
+    let parameter = |tokens: &[TokenTree]| match tokens {
+        [TokenTree::Ident(_), TokenTree::Punct(eq), ..] => eq.as_char() == '=',
+        _ => false,
+    };
+    for piece in pieces(group, parameter, "the ball's parameters", BALL, diagnostics) {
         let (name, value) = match piece.tokens.as_slice() {
             [TokenTree::Ident(name), TokenTree::Punct(eq), value @ ..] if eq.as_char() == '=' => {
                 (name, value)
@@ -183,7 +222,11 @@ fn vector(tokens: &[TokenTree], end: Span, diagnostics: &mut Diagnostics) -> Opt
 fn boxed(keyword: &Ident, group: &Group, diagnostics: &mut Diagnostics) -> Option<RegionShape> {
     let mut intervals = Vec::new();
     let mut valid = true;
-    for piece in split_commas(group) {
+    let interval = |tokens: &[TokenTree]| match tokens {
+        [TokenTree::Ident(_), TokenTree::Ident(word), ..] => word == "in",
+        _ => false,
+    };
+    for piece in pieces(group, interval, "the intervals", BOX, diagnostics) {
         let (name, bounds) = match piece.tokens.as_slice() {
             [TokenTree::Ident(name), TokenTree::Ident(word), TokenTree::Group(bounds)]
                 if word == "in" && bounds.delimiter() == Delimiter::Bracket =>

@@ -7,7 +7,7 @@
 use proc_macro2::{Delimiter, Group, Span, TokenTree};
 
 use super::syntax::{BinaryOp, Expr, SpanRange};
-use crate::polynomial::Rational;
+use crate::polynomial::{DecimalRange, Rational};
 
 /// One comma-separated piece of a delimited group.
 pub struct Piece {
@@ -337,6 +337,7 @@ fn check_complexity(tokens: &[TokenTree]) -> syn::Result<()> {
 /// A numeric literal as an exact rational.
 fn number(literal: proc_macro2::Literal) -> syn::Result<Expr> {
     let span = literal.span();
+    let text = literal.to_string();
     let parsed = syn::Lit::new(literal);
     let (digits, suffix) = match &parsed {
         syn::Lit::Int(i) => (i.base10_digits().to_string(), i.suffix().to_string()),
@@ -349,16 +350,53 @@ fn number(literal: proc_macro2::Literal) -> syn::Result<Expr> {
         }
     };
     if !suffix.is_empty() {
-        return Err(syn::Error::new(
-            span,
-            format!("numbers are exact and untyped: remove the `{suffix}` suffix"),
-        ));
+        return Err(syn::Error::new(span, suffix_message(&text, &suffix)));
     }
     match Rational::parse_decimal(&digits) {
         Ok(Some(value)) => Ok(Expr::Number { value, span }),
         Ok(None) => Err(syn::Error::new(span, "malformed number")),
-        Err(overflow) => Err(syn::Error::new(span, overflow)),
+        Err(range) => Err(syn::Error::new(span, range_message(&text, range))),
     }
+}
+
+/// Rust's numeric type suffixes (`1.5f32`).
+const TYPE_SUFFIXES: [&str; 16] = [
+    "i8", "i16", "i32", "i64", "i128", "isize", "u8", "u16", "u32", "u64", "u128", "usize", "f16",
+    "f32", "f64", "f128",
+];
+
+/// What to write instead of the literal `text` with its `suffix`. Rust
+/// lexes a name written right after a number, `2q`, as the number's suffix:
+/// that is a product, not a type, and dropping the suffix would silently
+/// drop the factor.
+fn suffix_message(text: &str, suffix: &str) -> String {
+    if TYPE_SUFFIXES.contains(&suffix) {
+        return format!("numbers are exact and untyped: remove the `{suffix}` suffix");
+    }
+    let number = text.strip_suffix(suffix).unwrap_or(text);
+    format!(
+        "`{text}` is not a number: a name written right after a number is read as its suffix; \
+         to multiply, write `{number} * {suffix}`"
+    )
+}
+
+/// Why the literal `text` is not an exact 128-bit rational, and what to do.
+fn range_message(text: &str, range: DecimalRange) -> String {
+    let why = match range {
+        DecimalRange::Large => {
+            "is too large: exact 128-bit rationals hold magnitudes up to about 1.7e38; rescale \
+             the state variables so that the coefficients are moderate"
+        }
+        DecimalRange::Small => {
+            "is too small (it underflows): exact 128-bit rationals hold at most 38 decimal \
+             places (down to 1e-38); round it to 38 places, drop the term, or rescale the state \
+             variables so that the coefficients are moderate"
+        }
+        DecimalRange::Digits => {
+            "has too many significant digits: exact 128-bit rationals hold at most 38; round it"
+        }
+    };
+    format!("the number `{text}` {why}")
 }
 
 /// Parses a lone expression (for the engine's tests).
@@ -392,6 +430,64 @@ mod tests {
             hamiltonian = q.powi(2); entropy degree 2; metric degree 0;
         });
         assert!(messages[0].contains("method"), "{messages:?}");
+    }
+
+    /// `2q` lexes as the number 2 with the suffix `q`: the message asks for
+    /// the product, as removing the suffix would silently drop the factor.
+    #[test]
+    fn a_name_right_after_a_number_gets_a_hint_to_multiply() {
+        let system = |hamiltonian: proc_macro2::TokenStream| {
+            errors(quote! {
+                struct S; state (q, p); const k = 2; poisson = [[0, 1], [-1, 0]];
+                hamiltonian = #hamiltonian; entropy degree 2; metric degree 0;
+            })
+        };
+        let messages = system(quote!(0.5 * p ^ 2 + 2q));
+        assert_eq!(
+            messages,
+            [
+                "`2q` is not a number: a name written right after a number is read as its \
+                 suffix; to multiply, write `2 * q`"
+            ],
+        );
+        let messages = system(quote!(p ^ 2 + 1.5k * q ^ 2));
+        assert!(messages[0].contains("write `1.5 * k`"), "{messages:?}");
+        // A type suffix is still only a type.
+        let messages = system(quote!(p ^ 2 + 1.5f64 * q ^ 2));
+        assert!(
+            messages[0].contains("numbers are exact and untyped: remove the `f64` suffix"),
+            "{messages:?}"
+        );
+    }
+
+    /// Literals beyond exact 128-bit rationals say which way they are out of
+    /// range: `1e-400` is tiny, not an overflow to be fixed with smaller
+    /// coefficients.
+    #[test]
+    fn literals_out_of_range_say_how() {
+        let system = |hamiltonian: proc_macro2::TokenStream| {
+            errors(quote! {
+                struct S; state (q, p); poisson = [[0, 1], [-1, 0]];
+                hamiltonian = #hamiltonian; entropy degree 2; metric degree 0;
+            })
+        };
+        let messages = system(quote!(1e-400 * p ^ 2 + q ^ 2));
+        assert!(
+            messages[0].starts_with("the number `1e-400` is too small (it underflows)"),
+            "{messages:?}"
+        );
+        let messages = system(quote!(1e400 * p ^ 2 + q ^ 2));
+        assert!(
+            messages[0].starts_with("the number `1e400` is too large"),
+            "{messages:?}"
+        );
+        let digits: proc_macro2::TokenStream =
+            format!("1.{}1 * p^2", "0".repeat(40)).parse().unwrap();
+        let messages = system(digits);
+        assert!(
+            messages[0].contains("has too many significant digits"),
+            "{messages:?}"
+        );
     }
 
     #[test]
