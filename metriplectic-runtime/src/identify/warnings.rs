@@ -712,6 +712,28 @@ fn numerical_rank(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_system::{reference_data, Quadratic2d};
+
+    /// Π∇E is judged against the misfit only up to [`MAX_SYMMETRY_MISFIT`]:
+    /// with K = I, ‖Π∇E‖ is 1/√2 of the field, which a misfit of 0.9 used
+    /// to count as vanishing.
+    #[test]
+    fn a_poor_fit_does_not_make_the_poisson_part_vanish() {
+        let data = reference_data(50, 3);
+        let truth = Model::<Quadratic2d>::reference().unwrap();
+        assert_eq!(poisson_part_vanishes(&data, &truth, 0.9), Some(false));
+        // K = 100·I: ‖Π∇E‖ is 1/√10001 ≈ 0.01 of the field, within a
+        // misfit of 0.05 but not of an exact fit's.
+        let strong: Vec<f64> = truth
+            .metric_coefficients()
+            .iter()
+            .map(|c| 100.0 * c)
+            .collect();
+        let strong =
+            Model::<Quadratic2d>::new(truth.entropy_coefficients().to_vec(), strong).unwrap();
+        assert_eq!(poisson_part_vanishes(&data, &strong, 0.05), Some(true));
+        assert_eq!(poisson_part_vanishes(&data, &strong, 1e-12), Some(false));
+    }
 
     #[test]
     fn the_fall_rate_is_the_mean_over_the_window() {
