@@ -35,6 +35,10 @@ use crate::system::{metric_pair_index, CertificateMode, MetriplecticSystem, Regi
 /// state-dependent ones: rounding in a metric search's Gram matrix is ~1e-16
 /// of its scale.
 const EIGENVALUE_TOLERANCE: f64 = 1e-10;
+/// A constant block's smallest eigenvalue above −this times its largest
+/// entry is rounding whatever the direction (an eigensolve's own error is
+/// ~n·ε of the largest entry).
+const ROUNDING_TOLERANCE: f64 = 1e-12;
 /// Relative tolerance of the certificate program's optimum |s| (the program
 /// itself runs at the far tighter `certificate_settings`).
 const CERTIFICATE_TOLERANCE: f64 = 1e-8;
@@ -227,39 +231,58 @@ fn embed(n: usize, block: &[usize], local: &[f64]) -> Vec<f64> {
     full
 }
 
-/// A constant block passes when its Jacobi-scaled form D^-½ K D^-½ has no
-/// eigenvalue below −[`EIGENVALUE_TOLERANCE`], D_i = max(K_ii, 0) plus that
-/// tolerance times the block's largest entry. The tolerance is then per
-/// direction: a large entry elsewhere cannot hide a negative one (a probe's
+/// A constant block with a negative diagonal entry fails. Otherwise it
+/// passes when its smallest eigenvalue is at rounding level, above
+/// −[`ROUNDING_TOLERANCE`] times its largest entry, or when its
+/// Jacobi-scaled form D^-½ K D^-½ has no eigenvalue below
+/// −[`EIGENVALUE_TOLERANCE`], D_i = max(K_ii, 0) plus that tolerance times the
+/// largest entry. Beyond rounding the tolerance is then per direction: a
+/// large entry elsewhere cannot hide a negative one (a probe's
 /// K = [[1e15, 1e-300], [1e-300, −1e5]] loaded while the tolerance was
-/// relative to the largest entry, and E fell at 1e5·|∇E|² along the second
-/// axis), and the floor keeps rows at rounding level (K_ii ≈ 0) from
-/// counting as negative. The scaling is a congruence, so K itself has a
-/// negative eigenvalue whenever the scaled form does: that one is reported.
+/// 1e-10 of the largest entry, and E fell at 1e5·|∇E|² along the second
+/// axis). The scaling is a congruence, so K itself has a negative
+/// eigenvalue whenever the scaled form does: that one is reported.
 fn check_constant_block<S: MetriplecticSystem>(
     what: &str,
     theta: &[f64],
     block: &[usize],
 ) -> Result<()> {
     let k0 = constant_block::<S>(theta, block);
-    let floor = EIGENVALUE_TOLERANCE * k0.amax();
+    let spread = k0.amax();
+    if spread == 0.0 {
+        return Ok(());
+    }
     let size = k0.nrows();
+    // A negative diagonal entry is an exact witness, eᵢᵀ K eᵢ < 0, with no
+    // rounding to allow for; an eigensolve would lose it next to a large
+    // entry (−1e-3 next to 1e15 comes back as 0).
+    if let Some(i) = (0..size)
+        .filter(|&i| k0[(i, i)] < 0.0)
+        .min_by(|&a, &b| k0[(a, a)].total_cmp(&k0[(b, b)]))
+    {
+        let mut direction = vec![0.0; size];
+        direction[i] = 1.0;
+        return Err(Error::MetricNotPositive {
+            what: what.to_owned(),
+            eigenvalue: k0[(i, i)],
+            direction: embed(S::DIM, block, &direction),
+            state: None,
+        });
+    }
+    let (eigenvalue, _) = smallest_eigen(k0.clone());
+    if eigenvalue >= -ROUNDING_TOLERANCE * spread {
+        return Ok(());
+    }
+    let floor = EIGENVALUE_TOLERANCE * spread;
     let root: Vec<f64> = (0..size)
         .map(|i| (k0[(i, i)].max(0.0) + floor).sqrt())
         .collect();
-    let scaled = DMatrix::from_fn(size, size, |a, b| {
-        if floor == 0.0 {
-            // An all-zero block.
-            0.0
-        } else {
-            k0[(a, b)] / (root[a] * root[b])
-        }
-    });
+    let scaled = DMatrix::from_fn(size, size, |a, b| k0[(a, b)] / (root[a] * root[b]));
     let (scaled_eigenvalue, u) = smallest_eigen(scaled);
     if scaled_eigenvalue.is_nan() || scaled_eigenvalue < -EIGENVALUE_TOLERANCE {
-        // K's own eigensolve loses entries below its rounding (−1e-3 next
-        // to 1e15 comes back as 0): take the scaled direction back, D^-½ u,
-        // and its Rayleigh quotient, unless K's smallest eigenvalue is lower.
+        // K's own eigensolve loses what is below its rounding: take the
+        // scaled direction back, D^-½ u, and its Rayleigh quotient, unless
+        // K's smallest eigenvalue is lower.
         let mut v: Vec<f64> = u.iter().zip(&root).map(|(u, r)| u / r).collect();
         let length = v.iter().map(|x| x * x).sum::<f64>().sqrt();
         v.iter_mut().for_each(|x| *x /= length);
@@ -859,8 +882,13 @@ mod tests {
         let t = theta(&[(12, 1.0)]);
         check_metric::<Quadratic2d>("test", &t).unwrap();
         // A zero row coupled to a large one at rounding level stays
-        // acceptable (eigenvalue −1e-30).
+        // acceptable (eigenvalues −1e-30 and −1e-18).
         let t = theta(&[(6, 1e-15), (12, 1.0)]);
         check_metric::<Quadratic2d>("test", &t).unwrap();
+        let t = theta(&[(0, 1.0), (6, 1e-9)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
+        // Coupling far beyond rounding into a zero row: eigenvalue −1e-6.
+        let t = theta(&[(0, 1.0), (6, 1e-3)]);
+        assert!(check_metric::<Quadratic2d>("test", &t).is_err());
     }
 }
