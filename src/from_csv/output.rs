@@ -13,6 +13,10 @@ use metriplectic_runtime::{
 use super::validation::{smooth_simulation, trajectory_label, Validation};
 use super::{io_error, Context, FromCsvError};
 
+/// The name of the file made (and removed at once) to test that the output
+/// directory is writable.
+const WRITE_TEST_PREFIX: &str = ".from_csv-write-test-";
+
 /// Refuses an output path that is a file, or a non-empty directory without
 /// `overwrite`. Creates nothing: the directory is made once the input has
 /// been read, so a bad CSV leaves nothing behind.
@@ -20,7 +24,16 @@ pub(super) fn check_output_dir(out: &Path, overwrite: bool) -> Result<(), FromCs
     match fs::metadata(out) {
         Ok(meta) if !meta.is_dir() => Err(FromCsvError::OutputNotADirectory(out.to_owned())),
         Ok(_) => {
-            let mut entries = fs::read_dir(out).map_err(io_error(out))?;
+            let entries = fs::read_dir(out).map_err(io_error(out))?;
+            // A write test left by a killed run is not the user's file.
+            let mut entries = entries.filter(|entry| {
+                entry.as_ref().map_or(true, |entry| {
+                    !entry
+                        .file_name()
+                        .to_string_lossy()
+                        .starts_with(WRITE_TEST_PREFIX)
+                })
+            });
             if entries.next().is_some() && !overwrite {
                 Err(FromCsvError::OutputNotEmpty(out.to_owned()))
             } else {
@@ -78,10 +91,7 @@ pub(super) fn check_output_files(out: &Path) -> Result<(), FromCsvError> {
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.subsec_nanos());
-    let probe = out.join(format!(
-        ".from_csv-write-test-{}-{nanos}",
-        std::process::id()
-    ));
+    let probe = out.join(format!("{WRITE_TEST_PREFIX}{}-{nanos}", std::process::id()));
     match fs::OpenOptions::new()
         .write(true)
         .create_new(true)

@@ -175,8 +175,9 @@ pub enum IdentifyWarning {
         /// The bound η the run used.
         eta: f64,
     },
-    /// Most solves of one subproblem failed (status not usable), so the
-    /// coefficients it searches stayed near the start or an early iterate.
+    /// Most solves of one subproblem failed (status not usable, or a result
+    /// the model refused), so the coefficients it searches stayed near the
+    /// start or an early iterate.
     FailedSolves {
         /// The subproblem.
         subproblem: Subproblem,
@@ -289,10 +290,10 @@ impl std::fmt::Display for IdentifyWarning {
                 attempted,
             } => write!(
                 f,
-                "{failed} of {attempted} {subproblem} failed (solver status not usable), so what \
-                 they search stayed near the start; the history's statuses say more. Badly \
-                 scaled states (or a region far from unit size) are a common cause: rescale the \
-                 state variables to order 1"
+                "{failed} of {attempted} {subproblem} failed (the solver's status was not \
+                 usable, or its result was refused), so what they search stayed near the start; \
+                 the history's statuses say more. Badly scaled states (or a region far from unit \
+                 size) are a common cause: rescale the state variables to order 1"
             ),
             Self::StillImproving {
                 cost,
@@ -437,7 +438,9 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         });
     }
     if let Some(eigenvalue) = largest_metric_eigenvalue(data, model) {
-        if eigenvalue >= (1.0 - METRIC_BOUND_TOLERANCE) * eta {
+        // Above the bound is no search's doing (a start beyond it).
+        let band = (1.0 - METRIC_BOUND_TOLERANCE) * eta..=(1.0 + METRIC_BOUND_TOLERANCE) * eta;
+        if band.contains(&eigenvalue) {
             warnings.push(IdentifyWarning::MetricAtBound { eigenvalue, eta });
         }
     }
@@ -599,7 +602,8 @@ fn poisson_part_vanishes<S: MetriplecticSystem>(
 }
 
 /// The largest eigenvalue of K(x) over the data's states and the origin
-/// (where the bound's constant term acts); `None` without states or if an
+/// (where the bound's constant term acts), for a system with a region only
+/// those in it (the bound holds there); `None` without states or if an
 /// eigensolve fails.
 fn largest_metric_eigenvalue<S: MetriplecticSystem>(
     data: &impl IdentificationData,
@@ -609,7 +613,13 @@ fn largest_metric_eigenvalue<S: MetriplecticSystem>(
     let origin = vec![0.0; n];
     let mut metric = vec![0.0; n * n];
     let mut largest: Option<f64> = None;
-    for x in data_states(data).into_iter().chain([origin.as_slice()]) {
+    let in_region =
+        |x: &&[f64]| S::REGION_CERTIFICATE.is_none_or(|certificate| certificate.region.contains(x));
+    for x in data_states(data)
+        .into_iter()
+        .chain([origin.as_slice()])
+        .filter(in_region)
+    {
         S::metric_value(x, model.metric_coefficients(), &mut metric);
         let matrix = nalgebra::DMatrix::from_row_slice(n, n, &metric);
         let values = symmetric_eigenvalues(&matrix)?;

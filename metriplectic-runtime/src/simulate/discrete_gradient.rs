@@ -117,7 +117,7 @@ use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
 use super::dopri::{interval_offsets, IntegrationStats, OutputTimes};
 use crate::error::{invalid, Result, SimulationError};
 use crate::model::Model;
-use crate::system::MetriplecticSystem;
+use crate::system::{CertificateMode, MetriplecticSystem};
 
 /// Largest number of iterations of one implicit equation.
 const MAX_ITERATIONS: u32 = 200;
@@ -147,7 +147,8 @@ const MIN_FRACTION: f64 = 1.0 / 1024.0;
 pub(super) struct Output {
     pub times: Vec<f64>,
     pub states: Vec<f64>,
-    /// The end time and state of every step (row-major).
+    /// The end time and state of every step (row-major), for systems with
+    /// an on-region certificate only (empty otherwise).
     pub step_times: Vec<f64>,
     pub step_states: Vec<f64>,
     pub stats: IntegrationStats,
@@ -261,6 +262,9 @@ fn integrate_with<S: MetriplecticSystem>(
     let mut times = Vec::new();
     let mut states = Vec::new();
     let mut tolerances = Vec::new();
+    // Every step's state, kept only where it is needed: to say where an
+    // on-region certificate's region was left between outputs.
+    let track_steps = S::REGION_CERTIFICATE.is_some_and(|c| c.mode == CertificateMode::OnRegion);
     let (mut step_times, mut step_states) = (Vec::new(), Vec::new());
     // Tolerance accumulated since the last output.
     let mut pending = 0.0;
@@ -312,8 +316,10 @@ fn integrate_with<S: MetriplecticSystem>(
             tau = next_tau;
             step_index += 1;
             stats.accepted_steps += 1;
-            step_times.push(t0 + tau);
-            step_states.extend_from_slice(&x);
+            if track_steps {
+                step_times.push(t0 + tau);
+                step_states.extend_from_slice(&x);
+            }
             if every_step && i < count {
                 push_output(
                     &mut times,
@@ -420,6 +426,15 @@ fn steps_between(from: f64, to: f64, step: f64) -> u64 {
     } else {
         ((to - from) / step * (1.0 - 1e-12)).ceil().max(1.0) as u64
     }
+}
+
+/// Where [`Stepper::restart`] moves the iterate.
+#[derive(Debug, Clone, Copy)]
+enum Restart {
+    /// The iterate the last Newton step was taken from.
+    Base,
+    /// The iterate with the smallest update so far.
+    Best,
 }
 
 /// An iterate of one step's implicit equation.
@@ -608,18 +623,23 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
                 .newton
                 .as_ref()
                 .is_some_and(|newton| newton.lu.is_some() && newton.at == self.base);
-            if self.newton.is_some() && worse && !fresh && jacobians < self.max_jacobians {
-                y.copy_from_slice(&self.base);
-                self.map(x, at_x, h, y);
-                stats.evaluations = stats.evaluations.saturating_add(1);
-                self.jacobian(x, at_x, h, y, stats);
+            // A base exists only once this solve has taken a step; one
+            // Jacobian stays in reserve to verify a solution.
+            let have_base = base_residual.is_finite();
+            if self.newton.is_some()
+                && worse
+                && have_base
+                && !fresh
+                && jacobians + 1 < self.max_jacobians
+            {
+                self.restart(Restart::Base, (x, at_x, h), y, stats);
                 jacobians += 1;
                 previous = f64::INFINITY;
                 base_residual = f64::INFINITY;
                 fraction = 1.0;
                 continue;
             }
-            if self.newton.is_some() && fraction > MIN_FRACTION && worse {
+            if self.newton.is_some() && have_base && fraction > MIN_FRACTION && worse {
                 fraction *= 0.5;
                 for ((yj, b), d) in y.iter_mut().zip(&self.base).zip(&self.update) {
                     *yj = b + fraction * d;
@@ -632,10 +652,7 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
                 // Diverged: retry from the best iterate with a fresh Jacobian.
                 match best {
                     Some(_) if jacobians < self.max_jacobians => {
-                        y.copy_from_slice(&self.best);
-                        self.map(x, at_x, h, y);
-                        stats.evaluations = stats.evaluations.saturating_add(1);
-                        self.jacobian(x, at_x, h, y, stats);
+                        self.restart(Restart::Best, (x, at_x, h), y, stats);
                         jacobians += 1;
                         previous = f64::INFINITY;
                         continue;
@@ -681,11 +698,11 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             // steps: a probe's first two went from (2, 2) to (5.9, −190),
             // where Newton no longer found the root near the guess).
             if update > tolerance && update > SLOW * previous && jacobians < self.max_jacobians {
-                if jacobians == 0 && best.is_some_and(|(smallest, _)| smallest < update) {
-                    y.copy_from_slice(&self.best);
-                    self.map(x, at_x, h, y);
-                    stats.evaluations = stats.evaluations.saturating_add(1);
-                    self.jacobian(x, at_x, h, y, stats);
+                if jacobians == 0
+                    && jacobians + 1 < self.max_jacobians
+                    && best.is_some_and(|(smallest, _)| smallest < update)
+                {
+                    self.restart(Restart::Best, (x, at_x, h), y, stats);
                     jacobians += 1;
                     previous = f64::INFINITY;
                     base_residual = f64::INFINITY;
@@ -719,6 +736,24 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             }
             _ => Err((update, iterations)),
         }
+    }
+
+    /// Moves the iterate `y` back to the base or the best iterate and takes
+    /// a Jacobian there (one more evaluation of Φ, counted).
+    fn restart(
+        &mut self,
+        to: Restart,
+        (x, at_x, h): (&[f64], Energy, f64),
+        y: &mut [f64],
+        stats: &mut IntegrationStats,
+    ) {
+        y.copy_from_slice(match to {
+            Restart::Base => &self.base,
+            Restart::Best => &self.best,
+        });
+        self.map(x, at_x, h, y);
+        stats.evaluations = stats.evaluations.saturating_add(1);
+        self.jacobian(x, at_x, h, y, stats);
     }
 
     /// Rounding bounds of ∇H and ∇S at the midpoint of `x` and the guess

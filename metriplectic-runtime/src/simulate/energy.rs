@@ -150,18 +150,21 @@ pub struct OutsideRegion {
     /// How many outputs lie outside the region (0 when only the trajectory
     /// between outputs left it).
     pub outputs: usize,
-    /// How many of the integrator's steps ended outside it (DOPRI5's
-    /// accepted steps; every discrete-gradient step).
+    /// How many of the integrator's states lay outside it: the start and
+    /// the end of each step (DOPRI5's accepted steps; every
+    /// discrete-gradient step).
     pub steps: usize,
     /// The earliest time at which an output or a step's end lay outside.
     pub first_time: f64,
 }
 
-/// Where the outputs and the step ends, each `(times, states row-major)`,
+/// Where the start `(t0, x0)`, the outputs and the step ends, each
+/// `(times, states row-major)`,
 /// lie outside the region of `S`'s on-region certificate; `None` if all
 /// lie inside, or if the system's certificate (if any) bounds K from below
 /// everywhere.
 pub(super) fn outside_region<S: MetriplecticSystem>(
+    start: (f64, &[f64]),
     outputs: (&[f64], &[f64]),
     steps: (&[f64], &[f64]),
 ) -> Option<OutsideRegion> {
@@ -178,6 +181,10 @@ pub(super) fn outside_region<S: MetriplecticSystem>(
     };
     let (outputs, first_output) = scan(outputs);
     let (steps, first_step) = scan(steps);
+    // The start counts with the steps (outputs need not include it).
+    let (start_outside, first_start) = scan((&[start.0], start.1));
+    let steps = steps + start_outside;
+    let first_step = first_step.min(first_start);
     (outputs + steps > 0).then_some(OutsideRegion {
         outputs,
         steps,

@@ -341,6 +341,7 @@ pub fn simulate<S: MetriplecticSystem>(
     };
     let energy = check_energy(&free_energy, &tolerances);
     let outside_region = outside_region::<S>(
+        (t0, x0),
         (&solution.times, &solution.states),
         (&solution.step_times, &solution.step_states),
     );
