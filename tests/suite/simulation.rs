@@ -4,6 +4,7 @@
 //! the discrete-gradient method on the paper systems.
 
 use crate::common::{Linear2d, RigidBody};
+use metriplectic::systems::DragDuffing;
 use metriplectic_runtime::free_energy_diagnostics;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::InitialStates;
@@ -451,21 +452,6 @@ fn discrete_gradient_steps_that_cannot_be_solved_are_errors_not_energy_losses() 
     );
 }
 
-metriplectic! {
-    /// A double well with a stiff, speed-dependent drag K_vv = 5 + 10v².
-    pub struct StiffDrag;
-    state (x, v);
-    poisson = [[0, -1], [1, 0]];
-    hamiltonian = 0.5 * v^2 + 0.25 * x^4 - 0.5 * x^2;
-    entropy degree 4;
-    metric degree 2;
-    region ball(radius = 3);
-    reference {
-        entropy = -(v^2 + 0.5 * x^4 - x^2);
-        metric = [[0.01, 0], [0, 5 + 10 * v^2]];
-    }
-}
-
 /// Long steps on a stiff metric: each step's equation has a root near its
 /// guess (a damped Newton from the guess finds it), but the first
 /// fixed-point iterates, explicit Euler steps with h·K ≈ 45, ran away
@@ -473,7 +459,18 @@ metriplectic! {
 /// `StepNotConverged`. Solved now, with E non-decreasing at every step.
 #[test]
 fn discrete_gradient_solves_long_steps_on_a_stiff_metric() {
-    let model = Model::<StiffDrag>::reference().unwrap();
+    // `DragDuffing`'s double well with its drag made stiff:
+    // K = diag(0.01, 50·(0.1 + 0.2v²)) = diag(0.01, 5 + 10v²).
+    let reference = Model::<DragDuffing>::reference().unwrap();
+    let mut metric: Vec<f64> = reference
+        .metric_coefficients()
+        .iter()
+        .map(|c| 50.0 * c)
+        .collect();
+    assert_eq!(DragDuffing::METRIC_EXPONENTS[0], &[0, 0]);
+    metric[0] = 0.01;
+    let model =
+        Model::<DragDuffing>::new(reference.entropy_coefficients().to_vec(), metric).unwrap();
     for step in [0.5, 1.0, 2.0] {
         let sim = simulate(&model, &[2.0, 2.0], 0.0, 20.0, &discrete_gradient(step))
             .unwrap_or_else(|e| panic!("h = {step}: {e}"));
