@@ -172,13 +172,17 @@ fn backends_agree_on_the_region_program() {
     };
     let dense = fit(SolverBackend::Dense);
     let clarabel = fit(SolverBackend::Clarabel(Default::default()));
-    for search in [&dense, &clarabel] {
+    // Clarabel ends at its feasibility tolerance, 1e-8 (its upper
+    // identities of degree-4 targets are off by 2.7e-9 in the region's
+    // unit-scaled states, where the check weighs them by ρ⁴ = 39); the
+    // dense backend's refinement takes them to 6e-13.
+    for (search, tolerance) in [(&dense, 1e-9), (&clarabel, 1e-8)] {
         assert_eq!(search.report.status, SolveStatus::Solved);
         let check = search
             .certificate
             .check::<DragRigidBody>(&search.coefficients)
             .unwrap();
-        assert!(check.holds(1e-9), "{check:?}");
+        assert!(check.holds(tolerance), "{check:?}");
     }
     let (a, b) = (
         dense.report.cost.unwrap().sum,
@@ -397,6 +401,91 @@ fn the_region_check_does_not_depend_on_the_metric_scale() {
         Model::<OnTheBoxOnly>::new(entropy.clone(), scaled(1.0, factor))
             .unwrap_or_else(|e| panic!("factor {factor}: {e}"));
     }
+}
+
+metriplectic! {
+    /// [`OnTheBoxOnly`] with q in millimetres: K(q) = 1 − c·q² on
+    /// |q| ≤ 500.
+    struct OnTheBoxInMillimetres;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (q^2 + p^2);
+    entropy degree 2;
+    metric degree 2;
+    region box(q in [-500, 500], p in [-1, 1]);
+    certificate on region;
+}
+
+metriplectic! {
+    /// [`OnTheBoxOnly`] with q in kilometres: |q| ≤ 0.0005.
+    struct OnTheBoxInKilometres;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (q^2 + p^2);
+    entropy degree 2;
+    metric degree 2;
+    region box(q in [-0.0005, 0.0005], p in [-1, 1]);
+    certificate on region;
+}
+
+/// K = 1 − c·q² on |q| ≤ `edge` is PSD there for c up to 1/edge²: accepted
+/// just below that, refused just above it.
+fn region_check_at_the_edge<S: MetriplecticSystem>(edge: f64) {
+    let entropy = vec![0.0; 5];
+    let boundary = 1.0 / (edge * edge);
+    for factor in [0.25, 0.9975, 0.99975] {
+        let c = factor * boundary;
+        Model::<S>::new(entropy.clone(), shrinking_metric::<S>(c))
+            .unwrap_or_else(|e| panic!("c = {c}: {e}"));
+    }
+    // K(±edge) = −2.5e-4, −2.5e-3, −7.
+    for factor in [1.00025, 1.0025, 8.0] {
+        let c = factor * boundary;
+        match Model::<S>::new(entropy.clone(), shrinking_metric::<S>(c)) {
+            Err(Error::MetricNotPositive { .. } | Error::MetricNotCertified { .. }) => {}
+            other => panic!("c = {c}: {other:?}"),
+        }
+    }
+}
+
+/// The region check decides by the metric on the region, not by the size of
+/// its coefficients or its region: the line between PSD on the box and not
+/// is where it is in metres. It used to accept K(±500) = −2.5e-4 in
+/// millimetres and K(±0.0005) = −0.025 in kilometres: its tolerance allowed
+/// K(x) ⪰ −1e-8·max|θ|·‖Z(x)‖², and ‖Z(x)‖² is 2.5e5 at the edge of the
+/// first box, max|θ| = 4e6 in the second.
+#[test]
+fn the_region_check_does_not_depend_on_the_units() {
+    region_check_at_the_edge::<OnTheBoxInMillimetres>(500.0);
+    region_check_at_the_edge::<OnTheBoxInKilometres>(0.0005);
+    region_check_at_the_edge::<OnTheBoxOnly>(0.5);
+}
+
+metriplectic! {
+    /// [`DragDuffing`] with its states in millimetres (x′ = 1000x): the
+    /// same flow, H and K with coefficients of 1e-7 beside ones of order one,
+    /// and a ball of radius 3000.
+    pub struct DragDuffingInMillimetres;
+    state (x, v);
+    const s = 1000;
+    poisson = [[0, -1], [1, 0]];
+    hamiltonian = 0.5 * v^2 + 0.25 * x^4 / s^2 - 0.5 * x^2;
+    entropy degree 4;
+    metric degree 2;
+    region ball(radius = 3000);
+    reference {
+        entropy = -(v^2 + 0.5 * x^4 / s^2 - x^2);
+        metric = [[0, 0], [0, 0.1 + 0.2 * v^2 / s^2]];
+    }
+}
+
+/// A region certificate in other units identifies as in unit scale: every
+/// metric search used to fail in millimetres (held-out error 0.4, K off by
+/// 68 times its size), since the Gram entries spanned twelve orders of
+/// magnitude. The programs now run in the region's unit-scaled states.
+#[test]
+fn a_region_in_millimetres_is_identified_from_a_cold_start() {
+    cold_start::<DragDuffingInMillimetres>(2000.0, 3000.0);
 }
 
 /// Data outside the region of `certificate on region` are where nothing

@@ -23,7 +23,7 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::gram::Layout;
+use super::gram::{monomial_scale, state_scale, Layout};
 use crate::error::{Error, Result};
 use crate::solve::linalg::symmetric_eigen;
 use crate::solve::svec::{smat, svec_diagonal, svec_index, svec_len, SQRT_2};
@@ -342,8 +342,24 @@ fn certify_block<S: MetriplecticSystem>(
         ));
     }
     let position = |e: &[u32]| exponents.iter().position(|x| *x == e);
+    // In the region's unit-scaled states, as the searches' certificates
+    // (`Layout`): Q = W Q′ W with W = diag(ρ^−β), the identities of x^α
+    // multiplied by ρ^α, and the block normalised by its largest scaled
+    // coefficient.
+    let rho = state_scale::<S>();
+    let weights: Vec<f64> = half.iter().map(|e| 1.0 / monomial_scale(&rho, e)).collect();
+    let target_scale: Vec<f64> = exponents.iter().map(|e| monomial_scale(&rho, e)).collect();
+    let scaled_size = block_pairs(block)
+        .flat_map(|(_, _, j, k)| entry::<S>(theta, j, k).iter().zip(&target_scale))
+        .map(|(c, r)| (c * r).abs())
+        .fold(0.0_f64, f64::max);
+    let scale = if scaled_size.is_normal() && scaled_size.is_finite() {
+        scaled_size
+    } else {
+        scale
+    };
 
-    // Variables [s | svec Q]; the objective |s| is the one regression row.
+    // Variables [s | svec Q′]; the objective |s| is the one regression row.
     let svec_size = svec_len(size);
     let objective = Regression {
         width: 1,
@@ -359,11 +375,12 @@ fn certify_block<S: MetriplecticSystem>(
     for (row_block, &(a, b, j, k)) in pairs.iter().enumerate() {
         let row = |alpha: usize| row_block * basis + alpha;
         // Normalised, so that the solver's absolute tolerances are relative.
-        for (target, &c) in rhs[row_block * basis..(row_block + 1) * basis]
+        for ((target, &c), r) in rhs[row_block * basis..(row_block + 1) * basis]
             .iter_mut()
             .zip(entry::<S>(theta, j, k))
+            .zip(&target_scale)
         {
-            *target = c / scale;
+            *target = c * r / scale;
         }
         for (beta, e_beta) in half.iter().enumerate() {
             for (gamma, e_gamma) in half.iter().enumerate() {
@@ -374,8 +391,9 @@ fn certify_block<S: MetriplecticSystem>(
                     continue;
                 };
                 let (p, q) = (a * half.len() + beta, b * half.len() + gamma);
+                let c = weights[beta] * weights[gamma] * target_scale[alpha];
                 // svec stores √2·Q_pq off the diagonal.
-                let weight = if p == q { 1.0 } else { 1.0 / SQRT_2 };
+                let weight = if p == q { c } else { c / SQRT_2 };
                 entries.push((row(alpha), 1 + svec_index(p, q), weight));
             }
         }
@@ -643,6 +661,24 @@ fn certify_on_region<S: MetriplecticSystem>(
         offsets.push(next);
         next += svec_len(size);
     }
+    // In the region's unit-scaled states (`Layout`): Gram variables Q′ with
+    // Q = W Q′ W, target α's rows multiplied by ρ^α, and the metric
+    // normalised by its largest scaled coefficient, so that the solver's
+    // absolute tolerances are relative in any units.
+    let weights: Vec<Vec<f64>> = layout
+        .lower
+        .iter()
+        .map(|block| layout.gram_weights(block, n))
+        .collect();
+    let scaled_size = (0..n * (n + 1) / 2)
+        .flat_map(|pair| (0..basis).map(move |alpha| (pair, alpha)))
+        .map(|(pair, alpha)| (theta[pair * basis + alpha] * layout.target_scale(alpha)).abs())
+        .fold(0.0_f64, f64::max);
+    let scale = if scaled_size.is_normal() && scaled_size.is_finite() {
+        scaled_size
+    } else {
+        scale
+    };
     let objective = Regression {
         width: 1,
         rows: vec![1.0],
@@ -656,17 +692,19 @@ fn certify_on_region<S: MetriplecticSystem>(
             let pair = metric_pair_index(n, j, k);
             for alpha in 0..layout.targets {
                 let row = rhs.len();
+                let target_scale = layout.target_scale(alpha);
                 // Normalised, so that the solver's absolute tolerances are
                 // relative: a tiny indefinite K must not pass as feasible.
                 rhs.push(if alpha < basis {
-                    theta[pair * basis + alpha] / scale
+                    theta[pair * basis + alpha] * target_scale / scale
                 } else {
                     0.0
                 });
-                for (block, &offset) in layout.lower.iter().zip(&offsets) {
+                for ((block, &offset), w) in layout.lower.iter().zip(&offsets).zip(&weights) {
                     let m = block.basis.len();
                     for (beta, gamma, c) in block.matching.entries(alpha) {
                         let (a, b) = (j * m + beta, k * m + gamma);
+                        let c = c * w[a] * w[b] * target_scale;
                         let weight = if a == b { c } else { c / SQRT_2 };
                         entries.push((row, offset + svec_index(a, b), weight));
                     }

@@ -71,6 +71,17 @@ impl BlockLayout {
 }
 
 /// The blocks of a system's metric certificate.
+///
+/// States in other units (millimetres, kilometres) make a certificate's
+/// entries span many orders of magnitude: on a region of extent ρ the
+/// monomial x^β is of size ρ^|β|, and a Gram entry of a degree-4 target
+/// 1e12 times smaller than a constant one. Every program over the blocks
+/// is therefore set up in the scaled coordinates u = x/ρ (ρ the region's
+/// extent in each variable, [`state_scale`]): a Gram matrix Q = W Q′ W with
+/// W diagonal ([`gram_weights`](Self::gram_weights)), which is PSD exactly
+/// when Q′ is, and each identity of target α multiplied by ρ^α
+/// ([`target_scale`](Self::target_scale)). Both are exact changes of
+/// variables: the certificate is the same, its numbers are of order one.
 #[derive(Debug, Clone)]
 pub(crate) struct Layout {
     /// Number of target monomials; the metric basis is their prefix.
@@ -79,6 +90,10 @@ pub(crate) struct Layout {
     pub lower: Vec<BlockLayout>,
     /// Blocks summing to ηI − K(x).
     pub upper: Vec<BlockLayout>,
+    /// The target monomials' exponents.
+    target_exponents: &'static [&'static [u32]],
+    /// ρ: each state variable's extent on the region (1 without one).
+    scale: Vec<f64>,
 }
 
 impl Layout {
@@ -100,6 +115,8 @@ impl Layout {
                     targets: certificate.targets.len(),
                     lower: blocks(certificate.lower),
                     upper: blocks(certificate.upper),
+                    target_exponents: certificate.targets,
+                    scale: state_scale::<S>(),
                 }
             }
             None => {
@@ -111,9 +128,49 @@ impl Layout {
                     targets: tables.matching.len(),
                     lower: vec![block],
                     upper: vec![block],
+                    target_exponents: S::METRIC_EXPONENTS,
+                    scale: state_scale::<S>(),
                 }
             }
         }
+    }
+
+    /// ρ^α, the factor target α's identities are multiplied by (1 for a
+    /// target the tables do not describe).
+    pub fn target_scale(&self, alpha: usize) -> f64 {
+        self.target_exponents
+            .get(alpha)
+            .map_or(1.0, |e| monomial_scale(&self.scale, e))
+    }
+
+    /// The diagonal of W in Q = W Q′ W for `block`, per Gram index
+    /// (j, β) ↦ j·|m| + β: ρ^−β / √s, with s the size of the block's
+    /// multiplier g(ρ u) on the unit-scaled states (the largest
+    /// |c|·ρ^(α−β−γ) of its matching entries; 1 for the plain block), so
+    /// that every scaled matching coefficient is at most 1.
+    pub fn gram_weights(&self, block: &BlockLayout, n: usize) -> Vec<f64> {
+        let monomial: Vec<f64> = block
+            .basis
+            .iter()
+            .map(|e| monomial_scale(&self.scale, e))
+            .collect();
+        let mut multiplier = 0.0_f64;
+        for alpha in 0..self.targets.min(self.target_exponents.len()) {
+            let target = self.target_scale(alpha);
+            for (b, g, c) in block.matching.entries(alpha) {
+                if let (Some(sb), Some(sg)) = (monomial.get(b), monomial.get(g)) {
+                    multiplier = multiplier.max(c.abs() * target / (sb * sg));
+                }
+            }
+        }
+        let normaliser = if multiplier.is_normal() && multiplier.is_finite() {
+            multiplier.sqrt()
+        } else {
+            1.0
+        };
+        (0..n)
+            .flat_map(|_| monomial.iter().map(|s| 1.0 / (s * normaliser)))
+            .collect()
     }
 
     /// Errors unless every table fits the metric basis of `S` and its own
@@ -169,6 +226,48 @@ impl Layout {
     }
 }
 
+/// ρ: each state variable's extent on the region of `S` (the larger
+/// |bound| of its bounding box), 1 without a region; all 1 when a monomial
+/// of the certificate would overflow or underflow at that scale, where the
+/// scaling cannot help.
+pub(crate) fn state_scale<S: MetriplecticSystem>() -> Vec<f64> {
+    let Some(certificate) = S::REGION_CERTIFICATE else {
+        return vec![1.0; S::DIM];
+    };
+    let (low, high) = certificate.region.bounding_box();
+    let scale: Vec<f64> = low
+        .iter()
+        .zip(&high)
+        .map(|(l, h)| l.abs().max(h.abs()))
+        .map(|r| {
+            if r.is_normal() && r.is_finite() {
+                r
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let representable = scale.len() == S::DIM
+        && certificate.targets.iter().all(|e| {
+            let size = monomial_scale(&scale, e);
+            size.is_normal() && size.is_finite() && (1.0 / size).is_normal()
+        });
+    if representable {
+        scale
+    } else {
+        vec![1.0; S::DIM]
+    }
+}
+
+/// ρ^e = Π ρᵢ^eᵢ.
+pub(crate) fn monomial_scale(scale: &[f64], exponent: &[u32]) -> f64 {
+    scale
+        .iter()
+        .zip(exponent)
+        .map(|(r, &e)| r.powi(e as i32))
+        .product()
+}
+
 /// The Gram matrix Q ⪰ 0 of one sum-of-squares block, row-major, with rows
 /// and columns indexed by (j, β) ↦ j·|m| + β (state index j, basis monomial β).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -208,10 +307,14 @@ pub struct GramCertificate {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CertificateCheck {
     /// The largest violation of a coefficient identity, relative to
-    /// max(η, the largest |Gram entry|): 0 for an exact certificate.
+    /// max(η, the largest |Gram entry|): 0 for an exact certificate. Both
+    /// are taken in the states scaled by the region's extent ρ (the
+    /// identity of x^α multiplied by ρ^α, each Gram matrix's row and column
+    /// of x^β by ρ^β), so that the numbers mean the same in any units;
+    /// without a region ρ = 1.
     pub identity_residual: f64,
-    /// The smallest eigenvalue over all Gram matrices, relative to the same
-    /// scale: ≥ 0 for a valid certificate.
+    /// The smallest eigenvalue over all Gram matrices (scaled as above),
+    /// relative to the same scale: ≥ 0 for a valid certificate.
     pub smallest_eigenvalue: f64,
 }
 
@@ -254,13 +357,6 @@ impl GramCertificate {
         let n = S::DIM;
         crate::error::check_len("metric coefficients", theta, S::metric_coefficient_count())?;
         self.check_shape(layout, n)?;
-        let scale = self
-            .lower
-            .iter()
-            .chain(&self.upper)
-            .flat_map(|q| q.values.iter())
-            .fold(self.eta.abs(), |m, v| m.max(v.abs()))
-            .max(f64::MIN_POSITIVE);
         // NaN would pass every comparison below (f64::min and max skip it).
         let values = self.lower.iter().chain(&self.upper).flat_map(|q| &q.values);
         if !(self.eta.is_finite() && values.clone().all(|v| v.is_finite())) {
@@ -269,8 +365,35 @@ impl GramCertificate {
                 smallest_eigenvalue: f64::NEG_INFINITY,
             });
         }
+        // Judged in the region's unit-scaled states (`Layout`): Q′ = W⁻¹QW⁻¹
+        // and the identities multiplied by ρ^α, so that the tolerance
+        // means the same in any units.
+        let scaled: Vec<GramMatrix> = layout
+            .lower
+            .iter()
+            .chain(&layout.upper)
+            .zip(self.lower.iter().chain(&self.upper))
+            .map(|(block, q)| {
+                let w = layout.gram_weights(block, n);
+                let mut values = q.values.clone();
+                for (a, row) in values.chunks_exact_mut(q.size).enumerate() {
+                    for (b, v) in row.iter_mut().enumerate() {
+                        *v /= w[a] * w[b];
+                    }
+                }
+                GramMatrix {
+                    size: q.size,
+                    values,
+                }
+            })
+            .collect();
+        let scale = scaled
+            .iter()
+            .flat_map(|q| q.values.iter())
+            .fold(self.eta.abs(), |m, v| m.max(v.abs()))
+            .max(f64::MIN_POSITIVE);
         let mut smallest = f64::INFINITY;
-        for q in self.lower.iter().chain(&self.upper) {
+        for q in &scaled {
             let matrix = DMatrix::from_row_slice(q.size, q.size, &q.values);
             let symmetric = (&matrix + matrix.transpose()) * 0.5;
             let asymmetry = (&matrix - &symmetric).amax();
@@ -353,7 +476,8 @@ fn block_sum(
         .sum()
 }
 
-/// Every coefficient identity's residual, lower then upper side.
+/// Every coefficient identity's residual (target α's multiplied by ρ^α),
+/// lower then upper side.
 fn identity_residuals<S: MetriplecticSystem>(
     layout: &Layout,
     certificate: &GramCertificate,
@@ -376,9 +500,14 @@ fn identity_residuals<S: MetriplecticSystem>(
                 } else {
                     0.0
                 };
-                residuals.push(value - block_sum(&layout.lower, &certificate.lower, (j, k), alpha));
+                let target_scale = layout.target_scale(alpha);
                 residuals.push(
-                    bound - value - block_sum(&layout.upper, &certificate.upper, (j, k), alpha),
+                    (value - block_sum(&layout.lower, &certificate.lower, (j, k), alpha))
+                        * target_scale,
+                );
+                residuals.push(
+                    (bound - value - block_sum(&layout.upper, &certificate.upper, (j, k), alpha))
+                        * target_scale,
                 );
             }
         }

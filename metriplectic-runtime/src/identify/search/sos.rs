@@ -51,10 +51,10 @@ impl SosBasis {
 /// The certificate's constraint blocks in an [`L1Problem`].
 pub(crate) struct SosConstraints {
     eta: f64,
-    /// Each lower block's PSD cone and side.
-    lower: Vec<(ConstraintId, usize)>,
-    /// Each upper block's PSD cone and side.
-    upper: Vec<(ConstraintId, usize)>,
+    /// Each lower block's PSD cone, side and scaling W (Q = W Q′ W).
+    lower: Vec<(ConstraintId, usize, Vec<f64>)>,
+    /// Each upper block's PSD cone, side and scaling W.
+    upper: Vec<(ConstraintId, usize, Vec<f64>)>,
 }
 
 impl SosConstraints {
@@ -69,16 +69,24 @@ impl SosConstraints {
             .sum()
     }
 
-    /// The Gram matrices from their cone slacks, which lie in the PSD cones,
-    /// so that each block is PSD up to rounding whatever the solver's
-    /// feasibility tolerance.
+    /// The Gram matrices Q = W Q′ W from their scaled cone slacks Q′, which
+    /// lie in the PSD cones, so that each block is PSD up to rounding
+    /// whatever the solver's feasibility tolerance.
     pub fn certificate(&self, solution: &L1Solution) -> GramCertificate {
-        let grams = |blocks: &[(ConstraintId, usize)]| {
+        let grams = |blocks: &[(ConstraintId, usize, Vec<f64>)]| {
             blocks
                 .iter()
-                .map(|&(id, size)| GramMatrix {
-                    size,
-                    values: unsvec(size, solution.slack(id)),
+                .map(|(id, size, weights)| {
+                    let mut values = unsvec(*size, solution.slack(*id));
+                    for (a, row) in values.chunks_exact_mut(*size).enumerate() {
+                        for (b, v) in row.iter_mut().enumerate() {
+                            *v *= weights[a] * weights[b];
+                        }
+                    }
+                    GramMatrix {
+                        size: *size,
+                        values,
+                    }
                 })
                 .collect()
         };
@@ -124,6 +132,17 @@ pub(crate) fn add_sos_constraints<S: MetriplecticSystem>(
     }
     let (lower_offsets, upper_offsets) = offsets.split_at(layout.lower.len());
 
+    // The Gram variables are the scaled Q′ (Q = W Q′ W) and each target's
+    // rows are multiplied by ρ^α (`Layout`): exact, and of order one in
+    // any units.
+    let weights: Vec<Vec<f64>> = layout
+        .lower
+        .iter()
+        .chain(&layout.upper)
+        .map(|block| layout.gram_weights(block, n))
+        .collect();
+    let (lower_weights, upper_weights) = weights.split_at(layout.lower.len());
+
     // Per pair and target: a lower row θ − Σ_lower = 0 and an upper row
     // θ + Σ_upper = η[j=k][α=0] (θ only on the metric basis).
     let mut entries = Vec::new();
@@ -132,22 +151,25 @@ pub(crate) fn add_sos_constraints<S: MetriplecticSystem>(
         for k in j..n {
             let pair = metric_pair_index(n, j, k);
             for alpha in 0..layout.targets {
+                let target_scale = layout.target_scale(alpha);
                 let (lower_row, upper_row) = (rhs.len(), rhs.len() + 1);
                 rhs.push(0.0);
+                // ρ^α = 1 at α = 0.
                 rhs.push(if j == k && alpha == 0 { eta } else { 0.0 });
                 if alpha < basis {
                     let t = theta_column + pair * basis + alpha;
-                    entries.push((lower_row, t, 1.0));
-                    entries.push((upper_row, t, 1.0));
+                    entries.push((lower_row, t, target_scale));
+                    entries.push((upper_row, t, target_scale));
                 }
-                for (row, sign, blocks, offsets) in [
-                    (lower_row, -1.0, &layout.lower, lower_offsets),
-                    (upper_row, 1.0, &layout.upper, upper_offsets),
+                for (row, sign, blocks, offsets, weights) in [
+                    (lower_row, -1.0, &layout.lower, lower_offsets, lower_weights),
+                    (upper_row, 1.0, &layout.upper, upper_offsets, upper_weights),
                 ] {
-                    for (block, &offset) in blocks.iter().zip(offsets) {
+                    for ((block, &offset), w) in blocks.iter().zip(offsets).zip(weights) {
                         let m = block.basis.len();
                         for (beta, gamma, c) in block.matching.entries(alpha) {
                             let (a, b) = (j * m + beta, k * m + gamma);
+                            let c = c * w[a] * w[b] * target_scale;
                             // svec stores √2·Q_ab off the diagonal.
                             let weight = if a == b { c } else { c / SQRT_2 };
                             entries.push((row, offset + svec_index(a, b), sign * weight));
@@ -159,14 +181,14 @@ pub(crate) fn add_sos_constraints<S: MetriplecticSystem>(
     }
     problem.constrain(Cone::Zero(rhs.len()), entries, rhs)?;
     let mut cones = Vec::with_capacity(sizes.len());
-    for (&size, &offset) in sizes.iter().zip(&offsets) {
+    for ((&size, &offset), w) in sizes.iter().zip(&offsets).zip(weights) {
         let svec_size = svec_len(size);
         let id = problem.constrain(
             Cone::Psd(size),
             (0..svec_size).map(|i| (i, offset + i, -1.0)).collect(),
             vec![0.0; svec_size],
         )?;
-        cones.push((id, size));
+        cones.push((id, size, w));
     }
     let upper = cones.split_off(layout.lower.len());
     Ok(SosConstraints {

@@ -15,9 +15,13 @@
 //! * each equality row and each nonnegative row has its own scale;
 //! * each PSD block has one scale (a positive multiple of a PSD matrix is
 //!   PSD, a row-wise scaling is not);
-//! * variables that a PSD block holds, and every variable tied to them by
-//!   an equality row (the metric coefficients matched to Gram entries),
-//!   share one scale; every other variable has its own.
+//! * variables that a PSD block holds share one scale; every other
+//!   variable has its own, the metric coefficients matched to Gram entries
+//!   too (their columns grow as ρ^α with the states' size ρ, and the
+//!   equality rows that tie them to the block are scaled one by one).
+//!   The Gram entries themselves are put on one scale by the searches,
+//!   which set up their certificates in the region's unit-scaled states
+//!   (`model::gram::Layout`).
 
 use nalgebra::DVector;
 
@@ -165,8 +169,11 @@ fn factor(norm: f64) -> f64 {
     }
 }
 
-/// The group of every variable: variables a PSD block holds, and those
-/// an equality row ties to them, share one; the others are alone.
+/// The group of every variable: variables a PSD block holds share one; the
+/// others are alone. (Variables an equality row ties to a block used to
+/// join its group too; but each equality row has its own scale, so nothing
+/// requires it, and it forced the metric coefficients of x^α, whose
+/// columns grow as ρ^α with the states' size ρ, onto one scale.)
 fn variable_groups(split: &Split, n_vars: usize) -> Vec<usize> {
     let mut parent: Vec<usize> = (0..n_vars).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
@@ -180,28 +187,16 @@ fn variable_groups(split: &Split, n_vars: usize) -> Vec<usize> {
         let (ra, rb) = (root(parent, a), root(parent, b));
         parent[ra.max(rb)] = ra.min(rb);
     }
-    let mut in_cone = vec![false; n_vars];
     for segment in split.segments.iter().filter(|s| s.psd.is_some()) {
         let mut first = None;
         for i in segment.range() {
-            for (c, held) in in_cone.iter_mut().enumerate() {
+            for c in 0..n_vars {
                 if split.g[(i, c)] != 0.0 {
-                    *held = true;
                     match first {
                         None => first = Some(c),
                         Some(f) => join(&mut parent, f, c),
                     }
                 }
-            }
-        }
-    }
-    // Equality rows tie their variables to a cone's group.
-    for i in 0..split.e.nrows() {
-        let row = split.e.row(i);
-        let columns: Vec<usize> = (0..n_vars).filter(|&c| row[c] != 0.0).collect();
-        if columns.iter().any(|&c| in_cone[c]) {
-            for pair in columns.windows(2) {
-                join(&mut parent, pair[0], pair[1]);
             }
         }
     }
