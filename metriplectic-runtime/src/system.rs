@@ -234,6 +234,12 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
     /// ([`SearchOptions::eta`](crate::SearchOptions::eta)). The macro
     /// computes it exactly; default 0 (unknown, the bound's floor applies).
     const HAMILTONIAN_SCALE: f64 = 0.0;
+    /// The largest |coefficient| of the Poisson tensor Π(x)'s entries in
+    /// the monomial basis: the scale of the conservative part of the flow,
+    /// which the default bound K ⪯ ηI follows too, since a metric in the
+    /// same units is of its order (Π = 1/m or 1/I carries a system's mass
+    /// or inertia). The macro computes it exactly; default 0 (unknown).
+    const POISSON_SCALE: f64 = 0.0;
 
     /// H(x). `x.len() == DIM`.
     fn hamiltonian(x: &[f64]) -> f64;

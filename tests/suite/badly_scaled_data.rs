@@ -237,3 +237,44 @@ fn the_entropy_search_is_equally_accurate_in_any_units() {
         );
     }
 }
+
+metriplectic! {
+    /// A spring with x in millimetres and v in m/s (m = 0.2 kg, k = 50 N/m):
+    /// Π = 1000/m = 5000 carries the units, and the drag
+    /// K₁₁ = (2 + 0.1v²)/m² reaches 112 on the box, above the bound of 20
+    /// that H alone (largest coefficient 0.1) gives.
+    pub struct MixedUnitSpring;
+    state (x, v);
+    const m = 0.2;
+    const k = 50;
+    poisson = [[0, -1000 / m], [1000 / m, 0]];
+    hamiltonian = 0.5 * m * v^2 + 0.5 * k * (x / 1000)^2;
+    entropy degree 4;
+    metric degree 2;
+    region box(x in [-300, 300], v in [-5, 5]);
+    reference {
+        entropy = -2 * (0.5 * m * v^2 + 0.5 * k * (x / 1000)^2);
+        metric = [[0, 0], [0, (2 + 0.1 * v^2) / m^2]];
+    }
+}
+
+/// The default bound follows Π too: with η = max(20, 4h) = 20 the metric
+/// came back as 20·I and the run stagnated at a field error of 1.4e-2
+/// (with a warning); η = 4π = 2e4 leaves room and the run converges.
+#[test]
+fn the_default_coefficient_bound_follows_the_poisson_tensor() {
+    assert_eq!(MixedUnitSpring::POISSON_SCALE, 5000.0);
+    assert_eq!(SearchOptions::default().eta_for::<MixedUnitSpring>(), 2e4);
+    let sample = |rng: &mut rand_chacha::ChaCha8Rng| {
+        vec![
+            rand::Rng::random_range(rng, -300.0..300.0),
+            rand::Rng::random_range(rng, -5.0..5.0),
+        ]
+    };
+    let train = metriplectic::systems::reference_samples::<MixedUnitSpring>(400, 1, sample);
+    let held_out = metriplectic::systems::reference_samples::<MixedUnitSpring>(200, 2, sample);
+    let result = identify::<MixedUnitSpring>(&train, &IdentifyConfig::default()).unwrap();
+    let error = relative_field_error(&result.model, &held_out);
+    assert_eq!(result.stop_reason, StopReason::Converged, "{error:e}");
+    assert!(error < 1e-8, "relative field error {error:e}");
+}

@@ -119,7 +119,7 @@ fn a_bound_below_the_true_coefficients_is_reported() {
 
 metriplectic! {
     /// An oscillator with friction 50, above the default metric bound
-    /// η = max(20, 4h) = 20.
+    /// η = max(20, 4h, 4π) = 20.
     pub struct HeavyFriction;
     state (q, p);
     poisson = [[0, 1], [-1, 0]];

@@ -409,6 +409,8 @@ impl ::metriplectic_runtime::MetriplecticSystem for Oscillator {
     );
     /// The largest |coefficient| of the Hamiltonian's non-constant terms.
     const HAMILTONIAN_SCALE: ::core::primitive::f64 = 0.5;
+    /// The largest |coefficient| of the Poisson tensor's entries.
+    const POISSON_SCALE: ::core::primitive::f64 = 1.0;
     #[inline]
     fn hamiltonian(__x: &[::core::primitive::f64]) -> ::core::primitive::f64 {
         __metriplectic_Oscillator::hamiltonian(__x)

@@ -102,7 +102,7 @@ pub struct IdentifyConfig {
     /// start's metric scale").
     pub initial_metric: Option<Vec<f64>>,
     /// Options of every search: the coefficient bound η, the SOS tables and
-    /// the solver. Default [`SearchOptions::default`] (η = max(20, 4h), see
+    /// the solver. Default [`SearchOptions::default`] (η = max(20, 4h, 4π), see
     /// [`SearchOptions::eta_for`]).
     pub search: SearchOptions,
     /// Give up after this many consecutive iterations in which both solves

@@ -244,7 +244,7 @@ impl std::fmt::Display for IdentifyWarning {
                 f,
                 "the coefficient bound η = {eta:e} is below the Hamiltonian's largest coefficient \
                  {hamiltonian_scale:e}: no entropy within it can outweigh H; raise \
-                 SearchOptions::eta or leave it None (max(20, 4h))"
+                 SearchOptions::eta or leave it None (max(20, 4h, 4π))"
             ),
             Self::ScaleSymmetry { classical: true } => write!(
                 f,

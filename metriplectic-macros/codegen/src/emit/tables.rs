@@ -132,3 +132,19 @@ pub fn hamiltonian_scale(system: &System) -> TokenStream {
         const HAMILTONIAN_SCALE: ::core::primitive::f64 = #value;
     }
 }
+
+/// `POISSON_SCALE`: the largest |coefficient| of Π's entries, exact until
+/// rounded here.
+pub fn poisson_scale(system: &System) -> TokenStream {
+    let scale = system
+        .poisson
+        .iter()
+        .flat_map(|entry| entry.terms())
+        .map(|(_, c)| c.to_f64().abs())
+        .fold(0.0, f64::max);
+    let value = super::literals::float(scale);
+    quote! {
+        /// The largest |coefficient| of the Poisson tensor's entries.
+        const POISSON_SCALE: ::core::primitive::f64 = #value;
+    }
+}

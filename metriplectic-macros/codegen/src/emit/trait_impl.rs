@@ -36,6 +36,7 @@ pub fn trait_impl(
     let sos_reduced = tables::sos(&[vec![0; system.state.len()]], &bases.sos_reduced_matching);
     let reference = tables::reference(system.reference.as_ref());
     let hamiltonian_scale = tables::hamiltonian_scale(system);
+    let poisson_scale = tables::poisson_scale(system);
     let certificate = super::certificate::trait_consts(system, &bindings::module_name(name));
     let module = bindings::module_name(name);
     let f64 = quote!(::core::primitive::f64);
@@ -69,6 +70,7 @@ pub fn trait_impl(
             const SOS_REDUCED: ::metriplectic_runtime::SosTables = #sos_reduced;
             #reference
             #hamiltonian_scale
+            #poisson_scale
             #certificate
             #(#methods)*
         }

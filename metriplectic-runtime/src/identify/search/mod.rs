@@ -34,8 +34,10 @@ use crate::solve::{L1Solution, SolveStatus, SolverSettings};
 pub struct SearchOptions {
     /// Coefficient bound η: |ψₖ| ≤ η and 0 ⪯ K(x) ⪯ ηI, at most 1e15 (the
     /// largest coefficient a model holds). Default `None`: η follows the
-    /// system, max(20, 4h) with h its Hamiltonian's largest coefficient
-    /// ([`MetriplecticSystem::HAMILTONIAN_SCALE`](crate::MetriplecticSystem::HAMILTONIAN_SCALE)),
+    /// system, max(20, 4h, 4π) with h its Hamiltonian's largest coefficient
+    /// ([`MetriplecticSystem::HAMILTONIAN_SCALE`](crate::MetriplecticSystem::HAMILTONIAN_SCALE))
+    /// and π its Poisson tensor's
+    /// ([`MetriplecticSystem::POISSON_SCALE`](crate::MetriplecticSystem::POISSON_SCALE)),
     /// see [`eta_for`](Self::eta_for).
     pub eta: Option<f64>,
     /// SOS tables of the metric certificate. Default [`SosBasis::Reduced`].
@@ -52,7 +54,8 @@ pub struct SearchOptions {
 
 impl SearchOptions {
     /// The coefficient bound η for system `S`: [`eta`](Self::eta) if given,
-    /// else max(20, 4h), h = `S::HAMILTONIAN_SCALE`, at most 1e15.
+    /// else max(20, 4h, 4π), h = `S::HAMILTONIAN_SCALE`,
+    /// π = `S::POISSON_SCALE`, at most 1e15.
     ///
     /// The bound only keeps the programs compact; it must never cut off the
     /// model the data need. 20 covers unit-scale systems (the 2-D paper
@@ -61,10 +64,14 @@ impl SearchOptions {
     /// curvature outweighs H's, since the free energy E = H + S has its
     /// maximum there, so its coefficients grow with H's: an SO(3) body with
     /// h = 150 needs 200, which the fixed bound of 20 cut off (a fit 4% off
-    /// on exact data, stopped by stagnation); 4h leaves room for that.
+    /// on exact data, stopped by stagnation); 4h leaves room for that. A
+    /// metric is of the order of Π, whose entries carry the system's units
+    /// (1/m, 1/I): a spring with x in millimetres and v in m/s has
+    /// Π = 1000/m = 5000 and K up to 112, which η = 20 cut to 20 (field
+    /// error 1.4e-2); 4π leaves room for that.
     pub fn eta_for<S: crate::system::MetriplecticSystem>(&self) -> f64 {
         self.eta
-            .unwrap_or_else(|| default_eta(S::HAMILTONIAN_SCALE))
+            .unwrap_or_else(|| default_eta(S::HAMILTONIAN_SCALE, S::POISSON_SCALE))
     }
 
     /// Checks η, the solver settings and the gauge (the support is checked
@@ -127,11 +134,11 @@ fn check_gauge_is_free<S: crate::system::MetriplecticSystem>(
     Ok(())
 }
 
-/// The bound when none is given: max(20, 4h) for a Hamiltonian whose
-/// largest coefficient is `h`, at most what a model holds (20 if `h` is
-/// not a number).
-fn default_eta(h: f64) -> f64 {
-    let scaled = 4.0 * h;
+/// The bound when none is given: max(20, 4h, 4π) for a Hamiltonian whose
+/// largest coefficient is `h` and a Poisson tensor whose largest is `pi`,
+/// at most what a model holds (20 if neither is a number).
+fn default_eta(h: f64, pi: f64) -> f64 {
+    let scaled = 4.0 * h.max(pi);
     if scaled > 20.0 {
         scaled.min(MAX_COEFFICIENT)
     } else {
