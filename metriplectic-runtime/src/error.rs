@@ -47,8 +47,10 @@ pub enum Error {
         state: Option<Vec<f64>>,
     },
     /// A state-dependent metric for which no certificate of K(x) ⪰ 0 was
-    /// found, although no state with a negative eigenvalue was found either.
-    #[error("{what}: could not certify K(x) ⪰ 0 for every x: {reason}")]
+    /// found, although no state with a negative eigenvalue was found either;
+    /// the reason ends by saying where K(x) ⪰ 0 is required (for every x, or
+    /// on the region only for `certificate on region;`).
+    #[error("{what}: could not certify K(x) ⪰ 0: {reason}")]
     MetricNotCertified {
         /// Which metric.
         what: String,

@@ -115,7 +115,7 @@ fn check_everywhere<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<
             return Err(witness::<S>(what, theta, &block, scale).unwrap_or(
                 Error::MetricNotCertified {
                     what: what.to_owned(),
-                    reason,
+                    reason: format!("{reason}; K(x) ⪰ 0 is required for every x"),
                 },
             ));
         } else if let Some(error) = vertex_witness::<S>(what, theta, &block, scale) {
