@@ -95,8 +95,9 @@ pub struct IdentifyConfig {
     /// model until a metric search, which keeps K ⪯ ηI, replaces it).
     /// Default `None`: the identity metric, scaled to the gauge if one is
     /// set; with no gauge and no [`initial_entropy`](Self::initial_entropy)
-    /// either, the identity times 1, 0.1 or 0.01 (while each fits the
-    /// start at least 10% better than the last), or else 10 if that does
+    /// either, the identity times the scale of 1, 0.1, …, 1e-6 (walking
+    /// down while no scale fits worse than the best, keeping one only if it
+    /// fits 10% better), or else of 10 and 100 likewise
     /// (scales up to the bound η; a start that already fits to
     /// [`tolerance`](Self::tolerance) is kept; `docs/method.md` §3, "The
     /// start's metric scale").

@@ -292,8 +292,8 @@ impl std::fmt::Display for IdentifyWarning {
                 f,
                 "{failed} of {attempted} {subproblem} failed (the solver's status was not \
                  usable, or its result was refused), so what they search stayed near the start; \
-                 the history's statuses say more. Badly scaled states (or a region far from unit \
-                 size) are a common cause: rescale the state variables to order 1"
+                 the history's statuses say more. Badly scaled states (or a region far from the \
+                 origin) are a common cause: rescale or centre the state variables"
             ),
             Self::StillImproving {
                 cost,

@@ -94,7 +94,13 @@ pub(crate) fn check_metric<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> 
             other => other,
         });
     }
-    check_everywhere::<S>(what, theta)
+    check_everywhere::<S>(what, theta).map_err(|error| match error {
+        Error::MetricNotCertified { what, reason } => Error::MetricNotCertified {
+            what,
+            reason: format!("{reason}; K(x) ⪰ 0 is required for every x"),
+        },
+        other => other,
+    })
 }
 
 /// `what`, saying that the default mode needs K(x) ⪰ 0 beyond the region.
@@ -115,7 +121,7 @@ fn check_everywhere<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<
             return Err(witness::<S>(what, theta, &block, scale).unwrap_or(
                 Error::MetricNotCertified {
                     what: what.to_owned(),
-                    reason: format!("{reason}; K(x) ⪰ 0 is required for every x"),
+                    reason,
                 },
             ));
         } else if let Some(error) = vertex_witness::<S>(what, theta, &block, scale) {
@@ -345,8 +351,9 @@ fn certify_block<S: MetriplecticSystem>(
     // In the region's unit-scaled states, as the searches' certificates
     // (`Layout`): Q = W Q′ W with W = diag(ρ^−β), the identities of x^α
     // multiplied by ρ^α, and the block normalised by its largest scaled
-    // coefficient.
-    let rho = state_scale::<S>();
+    // coefficient. For every x, ρ is at least 1: the tolerance allows
+    // K(x) ⪰ −s‖Z(x/ρ)‖², which a ρ below 1 would loosen far out.
+    let rho: Vec<f64> = state_scale::<S>().into_iter().map(|r| r.max(1.0)).collect();
     let weights: Vec<f64> = half.iter().map(|e| 1.0 / monomial_scale(&rho, e)).collect();
     let target_scale: Vec<f64> = exponents.iter().map(|e| monomial_scale(&rho, e)).collect();
     let scaled_size = block_pairs(block)

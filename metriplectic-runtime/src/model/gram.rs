@@ -310,7 +310,8 @@ pub struct CertificateCheck {
     /// max(η, the largest |Gram entry|): 0 for an exact certificate. Both
     /// are taken in the states scaled by the region's extent ρ (the
     /// identity of x^α multiplied by ρ^α, each Gram matrix's row and column
-    /// of x^β by ρ^β), so that the numbers mean the same in any units;
+    /// of x^β by ρ^β and the block by the size of its multiplier on the
+    /// scaled states), so that the numbers mean the same in any units;
     /// without a region ρ = 1.
     pub identity_residual: f64,
     /// The smallest eigenvalue over all Gram matrices (scaled as above),
@@ -392,6 +393,13 @@ impl GramCertificate {
             .flat_map(|q| q.values.iter())
             .fold(self.eta.abs(), |m, v| m.max(v.abs()))
             .max(f64::MIN_POSITIVE);
+        // Finite entries can overflow when scaled: no certificate then.
+        if !scale.is_finite() {
+            return Ok(CertificateCheck {
+                identity_residual: f64::INFINITY,
+                smallest_eigenvalue: f64::NEG_INFINITY,
+            });
+        }
         let mut smallest = f64::INFINITY;
         for q in &scaled {
             let matrix = DMatrix::from_row_slice(q.size, q.size, &q.values);
@@ -400,12 +408,21 @@ impl GramCertificate {
             let low = symmetric_eigenvalues(&symmetric)
                 .and_then(|values| values.first().copied())
                 .unwrap_or(f64::NAN);
-            // An asymmetric "Gram matrix" is no certificate: count it as a violation.
-            smallest = smallest.min(low - asymmetry);
+            // An asymmetric "Gram matrix" is no certificate: count it as a
+            // violation; so is one whose eigenvalues are not numbers
+            // (f64::min would skip NaN).
+            let low = low - asymmetry;
+            smallest = smallest.min(if low.is_nan() { f64::NEG_INFINITY } else { low });
         }
         let residual = identity_residuals::<S>(layout, self, theta)
             .into_iter()
-            .fold(0.0_f64, |m, r| m.max(r.abs()));
+            .fold(0.0_f64, |m, r| {
+                if r.is_nan() {
+                    f64::INFINITY
+                } else {
+                    m.max(r.abs())
+                }
+            });
         Ok(CertificateCheck {
             identity_residual: residual / scale,
             smallest_eigenvalue: if smallest.is_finite() {

@@ -97,7 +97,8 @@ impl<S: MetriplecticSystem> Model<S> {
     /// solvers' accuracy: a constant metric's smallest eigenvalue may be
     /// −1e-10 of its largest entry, and a certificate's Gram matrix may need
     /// a shift s of up to 1e-8 of the metric's largest coefficient, so that
-    /// a certified metric satisfies K(x) ⪰ −s‖Z(x)‖²I. Far out that bound
+    /// a certified metric satisfies K(x) ⪰ −s‖Z(x)‖²I (with a region, in
+    /// the states scaled by its extent ρ ≥ 1, `docs/method.md` §7). Far out that bound
     /// can exceed K itself (K₀₀ = 1 − 9e-9·q² certifies and is negative
     /// beyond |q| ≈ 1.05e4), so a certified metric is also probed where a
     /// single term of uᵀK(x)u dominates (the vertices of its Newton
