@@ -138,6 +138,87 @@ fn drag_rigid_body_is_identified_from_a_cold_start() {
     cold_start::<DragRigidBody>(1.5, 2.5);
 }
 
+metriplectic! {
+    /// [`DragDuffing`] with its position a temperature near 300 K
+    /// (T = 300 + x) and a drag that grows with it: its monomials of T are
+    /// collinear to a few parts in 10⁴ on the ball.
+    pub struct DragDuffingNearThreeHundredKelvin;
+    state (temp, v);
+    const c = 300;
+    poisson = [[0, -1], [1, 0]];
+    hamiltonian = 0.5 * v^2 + 0.25 * (temp - c)^4 - 0.5 * (temp - c)^2;
+    entropy degree 4;
+    metric degree 2;
+    region ball(center = [300, 0], radius = 3);
+    reference {
+        entropy = -(v^2 + 0.5 * (temp - c)^4 - (temp - c)^2);
+        metric = [[0, 0], [0, 0.1 + 0.2 * v^2 + 0.05 * (temp - c)^2]];
+    }
+}
+
+/// A region far from the origin: every search used to fail or stall (the
+/// held-out field error stagnated at 0.24 from S = 0 and at 4.3e-4 from
+/// the default start). The programs now run in coordinates centred on the
+/// region (the metric, its certificate) and on the data (the entropy).
+///
+/// Exact samples are not exact here: the system's own field, evaluated in
+/// the monomials of T, differs from the same field written in T − 300 by
+/// 7.5e-9 (terms of 0.25·300⁴ cancel to order one). The fit stops at that
+/// floor, and the searches near it end `AlmostSolved`, so this test does
+/// not ask for every solve to end `Solved` as [`cold_start`] does, and it
+/// asks of K what the same system centred at 0 achieves at that floor.
+#[test]
+fn a_region_far_from_the_origin_is_identified() {
+    type S = DragDuffingNearThreeHundredKelvin;
+    let around = |count, seed| {
+        reference_samples::<S>(count, seed, |rng| {
+            let x = in_ball(rng, 2, 2.0);
+            vec![300.0 + x[0], x[1]]
+        })
+    };
+    let (train, held_out) = (around(400, 1), around(200, 2));
+    for initial_entropy in [None, Some(vec![0.0; S::entropy_coefficient_count()])] {
+        let cold = initial_entropy.is_some();
+        let config = IdentifyConfig {
+            initial_entropy,
+            max_iterations: 60,
+            ..IdentifyConfig::default()
+        };
+        let run = identify::<S>(&train, &config).unwrap();
+        let (field, metric) = errors(&run.model, &held_out);
+        eprintln!(
+            "cold start {cold}: {} iterations ({:?}), held-out field error {field:.2e}, metric \
+             error {metric:.2e}",
+            run.history.iterations.len(),
+            run.stop_reason
+        );
+        assert!(field <= 1e-6, "cold start {cold}: field error {field:e}");
+        // K's dependence on T is weakly determined by these data: the same
+        // system written in T − 300 gets 1.9e-4 from exact samples and
+        // 8.9e-4 with relative noise of 1e-8 on ẋ (the floor above); this
+        // run measured 8.4e-4.
+        assert!(metric <= 2e-3, "cold start {cold}: metric error {metric:e}");
+        assert!(run.warnings.is_empty(), "{:?}", run.warnings);
+        // The kept certificate (over the monomials of T − 300) proves both
+        // bounds, and K ⪰ 0 holds on the region and far beyond it.
+        let certificate = run.model.certificate().expect("a certificate");
+        let check = certificate
+            .check::<S>(run.model.metric_coefficients())
+            .unwrap();
+        assert!(check.holds(1e-9), "{check:?}");
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for scale in [1.0, 100.0] {
+            for _ in 0..200 {
+                let x = in_ball(&mut rng, 2, scale * 3.0);
+                let x = [300.0 + x[0], x[1]];
+                let values = eigenvalues(&run.model, &x);
+                let size = values.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+                assert!(values[0] >= -1e-9 * size, "λmin {} at {x:?}", values[0]);
+            }
+        }
+    }
+}
+
 #[test]
 fn the_region_and_mode_come_from_the_declaration() {
     let certificate = DragDuffing::REGION_CERTIFICATE.expect("a region");
@@ -302,14 +383,22 @@ fn spiral_entropy<S: MetriplecticSystem>() -> Vec<f64> {
 
 /// θ of K = diag(1 − c·q², 1).
 fn shrinking_metric<S: MetriplecticSystem>(c: f64) -> Vec<f64> {
+    shrinking_metric_around::<S>(c, 0.0)
+}
+
+/// θ of K = diag(1 − c·(q − q₀)², 1), expanded in q.
+fn shrinking_metric_around<S: MetriplecticSystem>(c: f64, q0: f64) -> Vec<f64> {
     let basis = S::METRIC_EXPONENTS.len();
     let mut theta = vec![0.0; S::metric_coefficient_count()];
-    let q2 = S::METRIC_EXPONENTS
-        .iter()
-        .position(|e| e == &[2, 0])
-        .unwrap();
-    theta[0] = 1.0;
-    theta[q2] = -c;
+    let position = |exponent: [u32; 2]| {
+        S::METRIC_EXPONENTS
+            .iter()
+            .position(|e| e == &exponent)
+            .unwrap()
+    };
+    theta[0] = 1.0 - c * q0 * q0;
+    theta[position([1, 0])] = 2.0 * c * q0;
+    theta[position([2, 0])] = -c;
     theta[2 * basis] = 1.0;
     theta
 }
@@ -428,20 +517,20 @@ metriplectic! {
     certificate on region;
 }
 
-/// K = 1 − c·q² on |q| ≤ `edge` is PSD there for c up to 1/edge²: accepted
-/// just below that, refused just above it.
-fn region_check_at_the_edge<S: MetriplecticSystem>(edge: f64) {
+/// K = 1 − c·(q − q₀)² on |q − q₀| ≤ `edge` is PSD there for c up to
+/// 1/edge²: accepted just below that, refused just above it.
+fn region_check_at_the_edge<S: MetriplecticSystem>(edge: f64, q0: f64) {
     let entropy = vec![0.0; 5];
     let boundary = 1.0 / (edge * edge);
     for factor in [0.25, 0.9975, 0.99975] {
         let c = factor * boundary;
-        Model::<S>::new(entropy.clone(), shrinking_metric::<S>(c))
+        Model::<S>::new(entropy.clone(), shrinking_metric_around::<S>(c, q0))
             .unwrap_or_else(|e| panic!("c = {c}: {e}"));
     }
-    // K(±edge) = −2.5e-4, −2.5e-3, −7.
+    // K(q₀ ± edge) = −2.5e-4, −2.5e-3, −7.
     for factor in [1.00025, 1.0025, 8.0] {
         let c = factor * boundary;
-        match Model::<S>::new(entropy.clone(), shrinking_metric::<S>(c)) {
+        match Model::<S>::new(entropy.clone(), shrinking_metric_around::<S>(c, q0)) {
             Err(Error::MetricNotPositive { .. }) => {}
             // Just past the edge no state is named; the message says where
             // K ⪰ 0 is required (it used to say "for every x" here too).
@@ -463,9 +552,31 @@ fn region_check_at_the_edge<S: MetriplecticSystem>(edge: f64) {
 /// first box, max|θ| = 4e6 in the second.
 #[test]
 fn the_region_check_does_not_depend_on_the_units() {
-    region_check_at_the_edge::<OnTheBoxInMillimetres>(500.0);
-    region_check_at_the_edge::<OnTheBoxInKilometres>(0.0005);
-    region_check_at_the_edge::<OnTheBoxOnly>(0.5);
+    region_check_at_the_edge::<OnTheBoxInMillimetres>(500.0, 0.0);
+    region_check_at_the_edge::<OnTheBoxInKilometres>(0.0005, 0.0);
+    region_check_at_the_edge::<OnTheBoxOnly>(0.5, 0.0);
+}
+
+metriplectic! {
+    /// [`OnTheBoxOnly`] moved to q ∈ [299.5, 300.5], a box far from the
+    /// origin against its width.
+    struct OnTheBoxNearThreeHundred;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (q^2 + p^2);
+    entropy degree 2;
+    metric degree 2;
+    region box(q in [299.5, 300.5], p in [-1, 1]);
+    certificate on region;
+}
+
+/// Nor by where the region lies: on a box far from the origin the
+/// certificate is set up in coordinates centred on it, where K's
+/// coefficients are those of 1 − c·(q − 300)² and not of the expanded
+/// 1 − 9e4·c + 600c·q − c·q².
+#[test]
+fn the_region_check_does_not_depend_on_where_the_region_lies() {
+    region_check_at_the_edge::<OnTheBoxNearThreeHundred>(0.5, 300.0);
 }
 
 metriplectic! {

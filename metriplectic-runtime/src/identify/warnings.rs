@@ -7,7 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use super::config::IdentifyConfig;
 use super::history::{History, StepOutcome};
-use super::search::{entropy_regression, metric_regression};
+use super::search::{
+    centred_entropy_regression, entropy_regression, entropy_shift, metric_regression,
+};
 use crate::analysis::identifiability::{data_states, hamiltonian_coefficients};
 use crate::data::IdentificationData;
 use crate::error::Num;
@@ -408,7 +410,19 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     // combinations whatever the data: only the rest are unknowns.
     let entropy_rows = Equalities::new(classical::entropy_rows::<S>(), &free_entropy).dense_rows();
     let metric_rows = Equalities::new(classical::metric_rows::<S>(), &free).dense_rows();
-    let entropy = entropy_regression::<S>(data, model.metric_coefficients())?;
+    // On states far from the origin the rank is taken in centred
+    // coordinates, as the searches fit (the same rank exactly; in x the
+    // monomial columns are collinear to rounding). A classical system's
+    // rows stay in x, where they are orthonormal.
+    let centre = if entropy_rows.is_empty() {
+        entropy_shift::<S>(data, &free_entropy)
+    } else {
+        None
+    };
+    let entropy = match &centre {
+        Some(shift) => centred_entropy_regression::<S>(shift, data, model.metric_coefficients())?,
+        None => entropy_regression::<S>(data, model.metric_coefficients())?,
+    };
     let unknowns = p.saturating_sub(entropy_rows.len());
     if let Some(rank) = numerical_rank(&entropy, &free_entropy, &entropy_rows) {
         if rank < unknowns {
@@ -473,7 +487,12 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     let misfit = relative_residual(data, &entropy, psi);
     // Judged by medians, as the L1 fit is: outliers the fit rightly ignores
     // leave large residuals that say nothing about the rest.
-    let typical = typical_relative_residual(data, &entropy, psi);
+    // The entropy rows are in the coordinates the searches fit.
+    let searched = match &centre {
+        Some(centre) => centre.to_centred(psi),
+        None => psi.to_vec(),
+    };
+    let typical = typical_relative_residual(data, &entropy, &searched);
     if typical >= POOR_FIT {
         // A fit this poor says nothing about symmetries of the data.
         warnings.push(IdentifyWarning::PoorFit {

@@ -23,7 +23,8 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::gram::{monomial_scale, state_scale, Layout};
+use super::gram::{monomial_scale, region_coordinates, Layout};
+use super::shift::Shift;
 use crate::error::{Error, Result};
 use crate::solve::linalg::symmetric_eigen;
 use crate::solve::svec::{smat, svec_diagonal, svec_index, svec_len, SQRT_2};
@@ -316,6 +317,15 @@ fn certify_block<S: MetriplecticSystem>(
     block: &[usize],
     scale: f64,
 ) -> std::result::Result<(), String> {
+    // In y = x − c for a region far from the origin, as the searches'
+    // certificates (`Layout`): K(x) ⪰ 0 for every x exactly when
+    // K(c + y) ⪰ 0 for every y.
+    let (centre, rho) = region_coordinates::<S>();
+    let shift = centre.and_then(|c| Shift::new(S::METRIC_EXPONENTS, c));
+    let theta: &[f64] = &match &shift {
+        Some(shift) => shift.to_centred(theta),
+        None => theta.to_vec(),
+    };
     let exponents = S::METRIC_EXPONENTS;
     let degree_of = |e: &[u32]| e.iter().sum::<u32>();
     // The variables and the degree the block's entries use.
@@ -353,7 +363,7 @@ fn certify_block<S: MetriplecticSystem>(
     // multiplied by ρ^α, and the block normalised by its largest scaled
     // coefficient. For every x, ρ is at least 1: the tolerance allows
     // K(x) ⪰ −s‖Z(x/ρ)‖², which a ρ below 1 would loosen far out.
-    let rho: Vec<f64> = state_scale::<S>().into_iter().map(|r| r.max(1.0)).collect();
+    let rho: Vec<f64> = rho.into_iter().map(|r| r.max(1.0)).collect();
     let weights: Vec<f64> = half.iter().map(|e| 1.0 / monomial_scale(&rho, e)).collect();
     let target_scale: Vec<f64> = exponents.iter().map(|e| monomial_scale(&rho, e)).collect();
     let scaled_size = block_pairs(block)
@@ -655,6 +665,8 @@ fn certify_on_region<S: MetriplecticSystem>(
 ) -> std::result::Result<(), String> {
     let n = S::DIM;
     let basis = S::METRIC_EXPONENTS.len();
+    // In the layout's coordinates (centred for a region far from the origin).
+    let theta = layout.centred_metric(theta);
     let sizes: Vec<usize> = layout.lower.iter().map(|b| b.size(n)).collect();
     if let Some(&size) = sizes.iter().find(|&&size| size > MAX_GRAM_SIDE) {
         return Err(format!(

@@ -13,32 +13,43 @@
 //! Σ_upper  Σ_{(β,γ,c)} c·Qᵦ[(j,β),(k,γ)] = η[j=k][α=0] − θⱼₖ,α
 //! ```
 
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
+
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
+
+use super::shift::{far_centre, Shift};
 
 use crate::error::{invalid, Result};
 use crate::solve::linalg::symmetric_eigenvalues;
 use crate::system::{metric_pair_index, MetriplecticSystem, SosTables};
 
 /// A block's coefficient-matching table: unit weights for the global
-/// tables, weighted (multiplier products) for a region certificate.
-#[derive(Debug, Clone, Copy)]
+/// tables, weighted (multiplier products) for a region certificate, and
+/// computed for a region certificate in centred coordinates.
+#[derive(Debug, Clone)]
 pub(crate) enum Matching {
     Unit(&'static [&'static [(u16, u16)]]),
     Weighted(&'static [&'static [(u16, u16, f64)]]),
+    Centred(CentredTable),
 }
+
+/// A matching table computed at run time, per target the entries (β, γ, c).
+pub(crate) type CentredTable = Arc<[Vec<(u16, u16, f64)>]>;
 
 impl Matching {
     /// Number of target monomials the table covers.
-    fn targets(self) -> usize {
+    fn targets(&self) -> usize {
         match self {
             Self::Unit(rows) => rows.len(),
             Self::Weighted(rows) => rows.len(),
+            Self::Centred(rows) => rows.len(),
         }
     }
 
     /// The entries (β, γ, c) of target `alpha`.
-    pub fn entries(self, alpha: usize) -> Box<dyn Iterator<Item = (usize, usize, f64)>> {
+    pub fn entries(&self, alpha: usize) -> Box<dyn Iterator<Item = (usize, usize, f64)> + '_> {
         match self {
             Self::Unit(rows) => Box::new(
                 rows[alpha]
@@ -50,12 +61,17 @@ impl Matching {
                     .iter()
                     .map(|&(b, g, c)| (b as usize, g as usize, c)),
             ),
+            Self::Centred(rows) => Box::new(
+                rows[alpha]
+                    .iter()
+                    .map(|&(b, g, c)| (b as usize, g as usize, c)),
+            ),
         }
     }
 }
 
 /// One sum-of-squares block g(x)·Z(x)ᵀQZ(x), Z = I ⊗ m(x).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub(crate) struct BlockLayout {
     /// The block's basis monomials m(x).
     pub basis: &'static [&'static [u32]],
@@ -82,6 +98,14 @@ impl BlockLayout {
 /// when Q′ is, and each identity of target α multiplied by ρ^α
 /// ([`target_scale`](Self::target_scale)). Both are exact changes of
 /// variables: the certificate is the same, its numbers are of order one.
+///
+/// A region far from the origin against its extent (a temperature box
+/// [280, 320] K) is moreover centred: every program is set up in
+/// y = x − c, c the region's centre ([`Shift`]), where its monomials are
+/// not nearly collinear. The metric's coefficients are then those of
+/// K(c + y) ([`shift`](Self::shift)), the multipliers are g(c + y), the
+/// Gram matrices (and a [`GramCertificate`]'s) are over the monomials of
+/// y, and ρ is the region's extent around c.
 #[derive(Debug, Clone)]
 pub(crate) struct Layout {
     /// Number of target monomials; the metric basis is their prefix.
@@ -94,6 +118,9 @@ pub(crate) struct Layout {
     target_exponents: &'static [&'static [u32]],
     /// ρ: each state variable's extent on the region (1 without one).
     scale: Vec<f64>,
+    /// The metric coefficients' change to y = x − c, for a region far
+    /// from the origin.
+    shift: Option<Shift>,
 }
 
 impl Layout {
@@ -102,21 +129,41 @@ impl Layout {
     pub fn of<S: MetriplecticSystem>(tables: SosTables) -> Self {
         match S::REGION_CERTIFICATE {
             Some(certificate) => {
-                let blocks = |blocks: &'static [crate::system::GramBlock]| {
+                let (centre, scale) = region_coordinates::<S>();
+                let shift = centre.and_then(|c| {
+                    centred_tables(&certificate, &c)
+                        .and_then(|tables| Some((Shift::new(S::METRIC_EXPONENTS, c)?, tables)))
+                });
+                let blocks = |blocks: &'static [crate::system::GramBlock], first: usize| {
                     blocks
                         .iter()
-                        .map(|b| BlockLayout {
+                        .enumerate()
+                        .map(|(i, b)| BlockLayout {
                             basis: b.exponents,
-                            matching: Matching::Weighted(b.matching),
+                            matching: match &shift {
+                                Some((_, tables)) => Matching::Centred(tables[first + i].clone()),
+                                None => Matching::Weighted(b.matching),
+                            },
                         })
                         .collect()
                 };
+                let (lower, upper) = (
+                    blocks(certificate.lower, 0),
+                    blocks(certificate.upper, certificate.lower.len()),
+                );
+                let shift = shift.map(|(shift, _)| shift);
                 Self {
                     targets: certificate.targets.len(),
-                    lower: blocks(certificate.lower),
-                    upper: blocks(certificate.upper),
+                    lower,
+                    upper,
                     target_exponents: certificate.targets,
-                    scale: state_scale::<S>(),
+                    // Without a centre, ρ is the extent around the origin.
+                    scale: if shift.is_some() {
+                        scale
+                    } else {
+                        state_scale::<S>()
+                    },
+                    shift,
                 }
             }
             None => {
@@ -126,12 +173,29 @@ impl Layout {
                 };
                 Self {
                     targets: tables.matching.len(),
-                    lower: vec![block],
+                    lower: vec![block.clone()],
                     upper: vec![block],
                     target_exponents: S::METRIC_EXPONENTS,
                     scale: state_scale::<S>(),
+                    shift: None,
                 }
             }
+        }
+    }
+
+    /// The change of the metric coefficients to the centred coordinates
+    /// the programs use, for a region far from the origin: the θ columns of
+    /// a program over this layout are K(c + y)'s coefficients.
+    pub fn shift(&self) -> Option<&Shift> {
+        self.shift.as_ref()
+    }
+
+    /// θ in the coordinates of the layout's identities (`theta` itself
+    /// without a centre).
+    pub fn centred_metric<'a>(&self, theta: &'a [f64]) -> std::borrow::Cow<'a, [f64]> {
+        match &self.shift {
+            Some(shift) => std::borrow::Cow::Owned(shift.to_centred(theta)),
+            None => std::borrow::Cow::Borrowed(theta),
         }
     }
 
@@ -259,6 +323,81 @@ pub(crate) fn state_scale<S: MetriplecticSystem>() -> Vec<f64> {
     }
 }
 
+/// The centred coordinates of the region of `S`: c, the centre of each
+/// variable's interval on the region that lies farther from zero than its
+/// width (0 in the others; `None` if no interval does), and ρ, each
+/// variable's extent around c. Both are `None` and [`state_scale`] where
+/// ρ would not be representable.
+pub(crate) fn region_coordinates<S: MetriplecticSystem>() -> (Option<Vec<f64>>, Vec<f64>) {
+    let Some(certificate) = S::REGION_CERTIFICATE else {
+        return (None, vec![1.0; S::DIM]);
+    };
+    let (low, high) = certificate.region.bounding_box();
+    let Some(centre) = far_centre(&low, &high).filter(|c| c.len() == S::DIM) else {
+        return (None, state_scale::<S>());
+    };
+    let scale: Vec<f64> = low
+        .iter()
+        .zip(&high)
+        .zip(&centre)
+        .map(|((l, h), c)| (l - c).abs().max((h - c).abs()))
+        .collect();
+    let representable = scale.iter().all(|r| r.is_normal() && r.is_finite())
+        && certificate.targets.iter().all(|e| {
+            let size = monomial_scale(&scale, e);
+            size.is_normal() && size.is_finite() && (1.0 / size).is_normal()
+        });
+    if representable {
+        (Some(centre), scale)
+    } else {
+        (None, state_scale::<S>())
+    }
+}
+
+/// Every block's matching table in y = x − c, its multiplier g(c + y)
+/// expanded (the plain block's unchanged): lower blocks, then upper.
+/// `None` if a product leaves the targets (it cannot for the macro's
+/// tables, whose targets are all monomials up to their degree).
+fn centred_tables(
+    certificate: &crate::system::RegionCertificate,
+    centre: &[f64],
+) -> Option<Vec<CentredTable>> {
+    let targets: HashMap<&[u32], usize> = certificate
+        .targets
+        .iter()
+        .enumerate()
+        .map(|(k, e)| (*e, k))
+        .collect();
+    let mut tables = Vec::new();
+    for block in certificate.lower.iter().chain(certificate.upper) {
+        // g(c + y), term by term; the plain block's multiplier is 1.
+        let mut multiplier: BTreeMap<Vec<u32>, f64> = BTreeMap::new();
+        if block.multiplier.is_empty() {
+            multiplier.insert(vec![0; centre.len()], 1.0);
+        }
+        for &(coefficient, exponent) in block.multiplier {
+            for (gamma, weight) in super::shift::expansion(exponent, centre)? {
+                *multiplier.entry(gamma).or_insert(0.0) += coefficient * weight;
+            }
+        }
+        let mut rows = vec![Vec::new(); certificate.targets.len()];
+        let mut sum = vec![0_u32; centre.len()];
+        for (b, beta) in block.exponents.iter().enumerate() {
+            for (g, gamma) in block.exponents.iter().enumerate() {
+                for (delta, &c) in multiplier.iter().filter(|(_, c)| **c != 0.0) {
+                    for (((s, x), y), z) in sum.iter_mut().zip(*beta).zip(*gamma).zip(delta) {
+                        *s = x + y + z;
+                    }
+                    let alpha = *targets.get(sum.as_slice())?;
+                    rows[alpha].push((u16::try_from(b).ok()?, u16::try_from(g).ok()?, c));
+                }
+            }
+        }
+        tables.push(Arc::from(rows));
+    }
+    Some(tables)
+}
+
 /// ρ^e = Π ρᵢ^eᵢ.
 pub(crate) fn monomial_scale(scale: &[f64], exponent: &[u32]) -> f64 {
     scale
@@ -293,6 +432,12 @@ impl GramMatrix {
 /// that produced a model's metric ([`Model::certificate`](crate::Model::certificate)),
 /// and model files carry it, so anyone can re-check it with
 /// [`GramCertificate::check`].
+///
+/// For a region far from the origin against its extent in some variable
+/// (a temperature box [280, 320]), Z is over the monomials of y = x − c,
+/// c the region's centre in those variables (0 in the others): the blocks
+/// sum to K(c + y) and ηI − K(c + y), whose monomials are not nearly
+/// collinear there (`docs/method.md` §2, "States far from the origin").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GramCertificate {
     /// The bound η of ηI − K(x).
@@ -308,7 +453,8 @@ pub struct GramCertificate {
 pub struct CertificateCheck {
     /// The largest violation of a coefficient identity, relative to
     /// max(η, the largest |Gram entry|): 0 for an exact certificate. Both
-    /// are taken in the states scaled by the region's extent ρ (the
+    /// are taken in the region's centred coordinates (see
+    /// [`GramCertificate`]) scaled by its extent ρ (the
     /// identity of x^α multiplied by ρ^α, each Gram matrix's row and column
     /// of x^β by ρ^β and the block by the size of its multiplier on the
     /// scaled states), so that the numbers mean the same in any units;
@@ -502,6 +648,7 @@ fn identity_residuals<S: MetriplecticSystem>(
 ) -> Vec<f64> {
     let n = S::DIM;
     let basis = S::METRIC_EXPONENTS.len();
+    let theta = layout.centred_metric(theta);
     let mut residuals = Vec::new();
     for j in 0..n {
         for k in j..n {
@@ -534,7 +681,8 @@ fn identity_residuals<S: MetriplecticSystem>(
 
 /// θⱼₖ,α = Σ_lower [g Zᵀ Q Z]ⱼₖ,α on the metric basis: the metric the lower
 /// Gram matrices prove, so that its lower bound holds up to rounding
-/// whatever the solver's feasibility tolerance.
+/// whatever the solver's feasibility tolerance. In x: a centred layout's
+/// sums are K(c + y)'s coefficients, converted back.
 pub(crate) fn theta_from_gram<S: MetriplecticSystem>(
     layout: &Layout,
     lower: &[GramMatrix],
@@ -550,7 +698,10 @@ pub(crate) fn theta_from_gram<S: MetriplecticSystem>(
             }
         }
     }
-    theta
+    match layout.shift() {
+        Some(shift) => shift.to_original(&theta),
+        None => theta,
+    }
 }
 
 #[cfg(test)]

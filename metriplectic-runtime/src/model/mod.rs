@@ -14,11 +14,13 @@ mod file;
 mod gram;
 pub(crate) mod known_parts;
 mod score;
+mod shift;
 
 pub use gram::{CertificateCheck, GramCertificate, GramMatrix};
 pub use score::Score;
 
 pub(crate) use gram::{theta_from_gram, Layout};
+pub(crate) use shift::{far_centre, Shift};
 
 pub(crate) use certificate::check_metric;
 pub(crate) use display::polynomial;

@@ -1,6 +1,7 @@
 //! Entropy search (the paper's Problem 3): the L1 linear program in ψ with
 //! the metric K fixed.
 
+use super::centre::{centred_entropy_regression, entropy_shift};
 use super::{check_sample_rows, SearchOptions, SearchReport};
 use crate::data::check_dataset;
 use crate::data::IdentificationData;
@@ -41,6 +42,12 @@ pub struct EntropySearch {
 ///
 /// assembled from the system's per-sample
 /// [`entropy_block`](MetriplecticSystem::entropy_block).
+///
+/// Where the data of some state variable lie farther from zero than their
+/// spread (a temperature of 300 ± 2 K), the same program is solved for the
+/// coefficients of S in y = x − c, c the centre of the data, whose
+/// monomials are not nearly collinear, and ψ is converted back
+/// (`docs/method.md` §2, "States far from the origin").
 pub fn entropy_search<S: MetriplecticSystem>(
     data: &impl IdentificationData,
     metric: &[f64],
@@ -55,33 +62,50 @@ pub fn entropy_search<S: MetriplecticSystem>(
     let start = std::time::Instant::now();
     // Coefficients outside the support are columns left out.
     let free = options.support.free_entropy::<S>();
-    let mut regression = entropy_regression::<S>(data, metric)?;
+    // States far from the origin are searched in centred coordinates.
+    let centre = entropy_shift::<S>(data, &free);
+    let mut regression = match &centre {
+        Some(shift) => centred_entropy_regression::<S>(shift, data, metric)?,
+        None => entropy_regression::<S>(data, metric)?,
+    };
     if free.len() < S::entropy_coefficient_count() {
         regression = regression.select_columns(&free);
     }
     let p = free.len();
     let mut problem = L1Problem::new(regression, 0);
-    // Box rows: ψₖ ≤ η and −ψₖ ≤ η.
+    // Box rows: ψₖ ≤ η and −ψₖ ≤ η, on the coefficients in x.
     let mut entries = Vec::with_capacity(2 * p);
     for k in 0..p {
         entries.push((k, k, 1.0));
         entries.push((p + k, k, -1.0));
     }
-    problem.constrain(Cone::Nonnegative(2 * p), entries, vec![eta; 2 * p])?;
+    let in_searched = |entries| match &centre {
+        Some(shift) => shift.rows(entries, 0, p),
+        None => entries,
+    };
+    problem.constrain(
+        Cone::Nonnegative(2 * p),
+        in_searched(entries),
+        vec![eta; 2 * p],
+    )?;
     // The classical form: S a Casimir of Π.
     let casimir = Equalities::new(classical::entropy_rows::<S>(), &free);
     if !casimir.is_empty() {
         problem.constrain(
             Cone::Zero(casimir.len()),
-            casimir.entries(0),
+            in_searched(casimir.entries(0)),
             vec![0.0; casimir.len()],
         )?;
     }
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;
 
+    let found = match &centre {
+        Some(shift) => shift.to_original(solution.coefficients()),
+        None => solution.coefficients().to_vec(),
+    };
     let mut coefficients = vec![0.0; S::entropy_coefficient_count()];
-    for (&k, &v) in free.iter().zip(solution.coefficients()) {
+    for (&k, &v) in free.iter().zip(&found) {
         coefficients[k] = v.clamp(-eta, eta);
     }
     casimir.project_coefficients(&mut coefficients);

@@ -1,6 +1,7 @@
 //! A joint, linearised step in both coefficient blocks (ψ, θ) at once: a
 //! Gauss–Newton step for the L1 cost, in a trust region.
 
+use super::centre::{centred_entropy_regression, centred_metric_regression, entropy_shift};
 use super::sos::{add_metric_restrictions, add_sos_constraints, layout, SosConstraints};
 use super::{entropy_regression, metric_regression, SearchOptions, SearchReport};
 use crate::data::check_dataset;
@@ -8,7 +9,7 @@ use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::cost::{model_cost, model_residuals, Cost};
 use crate::model::classical::{self, Equalities};
-use crate::model::{theta_from_gram, GramCertificate, Model, MAX_COEFFICIENT};
+use crate::model::{theta_from_gram, GramCertificate, Model, Shift, MAX_COEFFICIENT};
 use crate::solve::{solve_l1, Cone, L1Problem, Regression};
 use crate::system::MetriplecticSystem;
 
@@ -146,13 +147,30 @@ impl Offset<'_> {
     /// Shifts `regression`'s targets by the bilinear term at the trial
     /// point, the linearised residual there minus the true one; `psi` is the
     /// current entropy on the free coefficients `free`.
-    fn apply(&self, regression: &mut Regression, free: &[usize], psi: &[f64]) {
-        let step: Vec<f64> = self
-            .metric
+    /// With `metric_shift` and `entropy_shift`, the columns are those of
+    /// the centred coordinates.
+    fn apply(
+        &self,
+        regression: &mut Regression,
+        free: &[usize],
+        psi: &[f64],
+        metric_shift: Option<&Shift>,
+        entropy_shift: Option<&Shift>,
+    ) {
+        let entropy_step: Vec<f64> = free
             .iter()
-            .copied()
-            .chain(free.iter().zip(psi).map(|(&k, v)| self.entropy[k] - v))
+            .zip(psi)
+            .map(|(&k, v)| self.entropy[k] - v)
             .collect();
+        let entropy_step = match entropy_shift {
+            Some(shift) => shift.to_centred(&entropy_step),
+            None => entropy_step,
+        };
+        let metric = match metric_shift {
+            Some(shift) => shift.to_centred(self.metric),
+            None => self.metric.to_vec(),
+        };
+        let step: Vec<f64> = metric.into_iter().chain(entropy_step).collect();
         let width = regression.width;
         for ((target, row), truth) in regression
             .target
@@ -189,6 +207,9 @@ fn step_with_offset<S: MetriplecticSystem>(
     }
     let layout = layout::<S>(options.sos)?;
     let theta = model.metric_coefficients();
+    // θ′'s columns are in the layout's coordinates (centred for a region
+    // far from the origin), and so are its trust region and penalty.
+    let searched_theta = layout.centred_metric(theta);
     // Entropy coefficients outside the support are neither columns nor moved.
     let free = options.support.free_entropy::<S>();
     let all_psi = model.entropy_coefficients();
@@ -200,33 +221,55 @@ fn step_with_offset<S: MetriplecticSystem>(
     // residual's constant part.
     // One copy of the data's rows at a time: at q = 16000 samples of a
     // 6-state system with 923 entropy coefficients each takes 725 MB.
+    // States far from the origin move ψ in centred coordinates.
+    let centre = entropy_shift::<S>(data, &free);
     let mut regression = {
-        let mut entropy_columns = entropy_regression::<S>(data, theta)?;
+        let mut entropy_columns = match &centre {
+            Some(shift) => centred_entropy_regression::<S>(shift, data, theta)?,
+            None => entropy_regression::<S>(data, theta)?,
+        };
         if p < all_psi.len() {
             entropy_columns = entropy_columns.select_columns(&free);
         }
-        metric_regression::<S>(data, all_psi)?.with_columns_of(&entropy_columns)
+        let metric_columns = match layout.shift() {
+            Some(shift) => centred_metric_regression::<S>(shift, data, all_psi)?,
+            None => metric_regression::<S>(data, all_psi)?,
+        };
+        metric_columns.with_columns_of(&entropy_columns)
     };
     // The trust region in units of each coefficient's effect on the data,
     // the same for the corrected step as for the first.
-    let widths = trust_widths(&regression, theta, &psi);
+    let searched_psi = match &centre {
+        Some(centre) => centre.to_centred(&psi),
+        None => psi.clone(),
+    };
+    let widths = trust_widths(&regression, &searched_theta, &searched_psi);
     if let Some(offset) = &offset {
-        offset.apply(&mut regression, &free, &psi);
+        offset.apply(
+            &mut regression,
+            &free,
+            &psi,
+            layout.shift(),
+            centre.as_ref(),
+        );
     }
     let data_rows = regression.len();
-    let penalty = step_penalty(&regression, theta);
+    let penalty = step_penalty(&regression, &searched_theta);
     let mut problem = L1Problem::new(
         regression.stacked(&penalty),
         SosConstraints::variables::<S>(&layout),
     );
     let sos = add_sos_constraints::<S>(&mut problem, &layout, eta, 0, t_len + p)?;
-    let degenerate = add_metric_restrictions::<S>(&mut problem, options, 0)?;
+    let degenerate = add_metric_restrictions::<S>(&mut problem, &layout, options, 0)?;
     // The classical form: C_S (ψ + d) = C_S d = 0, the current ψ meeting it.
     let casimir = Equalities::new(classical::entropy_rows::<S>(), &free);
     if !casimir.is_empty() {
         problem.constrain(
             Cone::Zero(casimir.len()),
-            casimir.entries(t_len),
+            match &centre {
+                Some(shift) => shift.rows(casimir.entries(t_len), t_len, p),
+                None => casimir.entries(t_len),
+            },
             vec![0.0; casimir.len()],
         )?;
     }
@@ -235,7 +278,7 @@ fn step_with_offset<S: MetriplecticSystem>(
     // A radius near f64::MAX would make the box infinite; no coefficient
     // of a model exceeds MAX_COEFFICIENT, so that bounds the reach.
     let reach_of = |column: usize| (radius * widths[column]).min(2.0 * MAX_COEFFICIENT);
-    for (t, &value) in theta.iter().enumerate() {
+    for (t, &value) in searched_theta.iter().enumerate() {
         let reach = reach_of(t);
         entries.push((2 * t, t, 1.0));
         entries.push((2 * t + 1, t, -1.0));
@@ -246,7 +289,21 @@ fn step_with_offset<S: MetriplecticSystem>(
         let row = 2 * (t_len + k);
         entries.push((row, t_len + k, 1.0));
         entries.push((row + 1, t_len + k, -1.0));
-        rhs.extend([reach.min(eta - value), reach.min(eta + value)]);
+        match &centre {
+            // The box |ψ + d| ≤ η on the coefficients in x gets rows of its own.
+            Some(_) => rhs.extend([reach, reach]),
+            None => rhs.extend([reach.min(eta - value), reach.min(eta + value)]),
+        }
+    }
+    if let Some(centre) = &centre {
+        let mut box_rows = Vec::with_capacity(2 * p);
+        for (k, &value) in psi.iter().enumerate() {
+            let row = rhs.len();
+            box_rows.push((row, t_len + k, 1.0));
+            box_rows.push((row + 1, t_len + k, -1.0));
+            rhs.extend([eta - value, eta + value]);
+        }
+        entries.extend(centre.rows(box_rows, t_len, p));
     }
     problem.constrain(Cone::Nonnegative(rhs.len()), entries, rhs)?;
     let build_seconds = start.elapsed().as_secs_f64();
@@ -263,8 +320,12 @@ fn step_with_offset<S: MetriplecticSystem>(
     let mut metric = theta_from_gram::<S>(&layout, &certificate.lower);
     degenerate.project_coefficients(&mut metric);
     options.support.zero_held_metric(&mut metric);
+    let entropy_step = match &centre {
+        Some(centre) => centre.to_original(&step[t_len..]),
+        None => step[t_len..].to_vec(),
+    };
     let mut entropy = all_psi.to_vec();
-    for ((&k, v), d) in free.iter().zip(&psi).zip(&step[t_len..]) {
+    for ((&k, v), d) in free.iter().zip(&psi).zip(&entropy_step) {
         entropy[k] = (v + d).clamp(-eta, eta);
     }
     casimir.project_coefficients(&mut entropy);
@@ -399,7 +460,7 @@ mod tests {
             metric: &trial_metric,
             entropy: &trial_entropy,
         };
-        offset.apply(&mut regression, &[0, 1, 2, 3, 4], &entropy);
+        offset.apply(&mut regression, &[0, 1, 2, 3, 4], &entropy, None, None);
         for (r, t) in truth.iter().enumerate() {
             let found = linearised(&regression, r);
             assert!(

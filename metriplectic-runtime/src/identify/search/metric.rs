@@ -2,6 +2,7 @@
 //! coefficients θ with the entropy fixed, under sum-of-squares constraints
 //! that make 0 ⪯ K(x) ⪯ ηI hold for every x (see [`super::sos`]).
 
+use super::centre::centred_metric_regression;
 use super::sos::{add_metric_restrictions, add_sos_constraints, layout, SosConstraints};
 use super::{check_sample_rows, SearchOptions, SearchReport};
 use crate::data::check_dataset;
@@ -63,13 +64,15 @@ pub fn metric_search<S: MetriplecticSystem>(
 
     let start = std::time::Instant::now();
     let theta_len = S::metric_coefficient_count();
-    let mut problem = L1Problem::new(
-        metric_regression::<S>(data, entropy)?,
-        SosConstraints::variables::<S>(&layout),
-    );
+    // A region far from the origin: θ in the centred coordinates.
+    let regression = match layout.shift() {
+        Some(shift) => centred_metric_regression::<S>(shift, data, entropy)?,
+        None => metric_regression::<S>(data, entropy)?,
+    };
+    let mut problem = L1Problem::new(regression, SosConstraints::variables::<S>(&layout));
     let sos =
         add_sos_constraints::<S>(&mut problem, &layout, options.eta_for::<S>(), 0, theta_len)?;
-    let degenerate = add_metric_restrictions::<S>(&mut problem, options, 0)?;
+    let degenerate = add_metric_restrictions::<S>(&mut problem, &layout, options, 0)?;
     let build_seconds = start.elapsed().as_secs_f64();
     let solution = solve_l1(&problem, &options.solver)?;
 

@@ -5,6 +5,7 @@
 //! per-sample rows, solves it, and recomputes the candidate's cost from the
 //! model — the solver's own objective is never trusted for decisions.
 
+mod centre;
 mod entropy;
 pub(crate) mod joint;
 mod metric;
@@ -15,6 +16,7 @@ pub use joint::{joint_step, JointStep};
 pub use metric::{metric_search, MetricSearch};
 pub use sos::SosBasis;
 
+pub(crate) use centre::{centred_entropy_regression, entropy_shift};
 pub(crate) use entropy::entropy_regression;
 pub(crate) use metric::metric_regression;
 pub(crate) use sos::certificate_free_metric;

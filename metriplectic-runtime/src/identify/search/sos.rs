@@ -218,13 +218,14 @@ pub(crate) fn certificate_free_metric<S: MetriplecticSystem>(basis: SosBasis) ->
 
 /// Adds the support's zero metric coefficients, the gauge and, for a
 /// classical system, K∇H ≡ 0 as equality rows on θ (in the variables from
-/// `theta_column`), and returns the classical rows for projecting the
+/// `theta_column`, in the coordinates of `layout`), and returns the classical rows for projecting the
 /// solution onto them. Coefficients the certificate already forces to
 /// zero get no row, and the classical rows are restricted to the free
 /// coefficients and made independent: a repeated equality would make the
 /// constraint matrix rank-deficient.
 pub(crate) fn add_metric_restrictions<S: MetriplecticSystem>(
     problem: &mut L1Problem,
+    layout: &Layout,
     options: &SearchOptions,
     theta_column: usize,
 ) -> Result<Equalities> {
@@ -260,6 +261,10 @@ pub(crate) fn add_metric_restrictions<S: MetriplecticSystem>(
             .map(|(r, j, v)| (at + r, theta_column + degenerate.coefficient(j), v)),
     );
     rhs.resize(at + degenerate.len(), 0.0);
+    // The rows are on θ in x; a centred layout's columns are in y.
+    if let Some(shift) = layout.shift() {
+        entries = shift.rows(entries, theta_column, S::metric_coefficient_count());
+    }
     if !rhs.is_empty() {
         problem.constrain(Cone::Zero(rhs.len()), entries, rhs)?;
     }
