@@ -27,10 +27,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
-use crate::identify::search::{entropy_regression, metric_regression};
+use crate::identify::search::{
+    centred_entropy_regression, centred_metric_regression, entropy_regression, entropy_shift,
+    metric_regression,
+};
 use crate::identify::SearchOptions;
 use crate::model::classical::{self, Equalities};
 use crate::model::{polynomial, Model};
+use crate::model::{Layout, Shift};
 use crate::solve::linalg::{least_squares, triangular_factor_by_blocks};
 use crate::solve::Regression;
 use crate::system::{metric_pair_index, MetriplecticSystem};
@@ -275,8 +279,36 @@ pub fn identifiability<S: MetriplecticSystem>(
     support.check_model("model", psi, theta)?;
     let free_psi = support.free_entropy::<S>();
     let free_theta = support.free_metric::<S>(options.search.sos);
-    let metric_rows = metric_regression::<S>(data, psi)?;
-    let entropy_rows = entropy_regression::<S>(data, theta)?;
+    // On states or a region far from the origin the analysis reads the
+    // columns in the searches' centred coordinates (`docs/method.md` §2),
+    // where the monomials are not collinear to rounding, and reports its
+    // directions in x. A gauge or classical rows (on x) keep it in x.
+    let plain = options.search.gauge.is_none() && S::CLASSICAL.is_none();
+    let psi_shift = plain.then(|| entropy_shift::<S>(data, &free_psi)).flatten();
+    let theta_shift = (plain && free_theta.len() == S::metric_coefficient_count())
+        .then(|| {
+            Layout::of::<S>(options.search.sos.tables::<S>())
+                .shift()
+                .cloned()
+        })
+        .flatten();
+    let in_columns = |shift: Option<&Shift>, values: &[f64]| match shift {
+        Some(shift) => shift.to_centred(values),
+        None => values.to_vec(),
+    };
+    let metric_rows = match &theta_shift {
+        Some(shift) => centred_metric_regression::<S>(shift, data, psi)?,
+        None => metric_regression::<S>(data, psi)?,
+    };
+    let entropy_rows = match &psi_shift {
+        Some(shift) => centred_entropy_regression::<S>(shift, data, theta)?,
+        None => entropy_regression::<S>(data, theta)?,
+    };
+    // The coefficients as the columns read them.
+    let (theta_columns, psi_columns) = (
+        in_columns(theta_shift.as_ref(), theta),
+        in_columns(psi_shift.as_ref(), psi),
+    );
     // Columns: free θ, then free ψ.
     let columns = free_theta.len() + free_psi.len();
     let column = |row: usize, c: usize| {
@@ -362,8 +394,8 @@ pub fn identifiability<S: MetriplecticSystem>(
     let relative: Vec<f64> = singular.iter().map(|s| s / top).collect();
     let misfit = misfit(
         &entropy_rows,
-        psi,
-        scaled_size(&scale, &free_theta, &free_psi, theta, psi),
+        &psi_columns,
+        scaled_size(&scale, &free_theta, &free_psi, &theta_columns, &psi_columns),
         top,
     );
     let cut = options.tolerance.max(misfit);
@@ -380,15 +412,14 @@ pub fn identifiability<S: MetriplecticSystem>(
     let scale_direction = hamiltonian.and_then(|h| {
         let mut direction = vec![0.0; columns];
         for (c, &t) in free_theta.iter().enumerate() {
-            direction[c] = theta[t] * scale[c];
+            direction[c] = theta_columns[t] * scale[c];
         }
+        let psi_h: Vec<f64> = psi.iter().zip(&h).map(|(a, b)| a + b).collect();
         let mut outside = 0.0_f64;
-        for (k, (&value, &hk)) in psi.iter().zip(&h).enumerate() {
+        for (k, &value) in in_columns(psi_shift.as_ref(), &psi_h).iter().enumerate() {
             match free_psi.binary_search(&k) {
-                Ok(c) => {
-                    direction[free_theta.len() + c] = -(value + hk) * scale[free_theta.len() + c]
-                }
-                Err(_) => outside = outside.max((value + hk).abs()),
+                Ok(c) => direction[free_theta.len() + c] = -value * scale[free_theta.len() + c],
+                Err(_) => outside = outside.max(value.abs()),
             }
         }
         let size = norm(&direction);
@@ -421,7 +452,15 @@ pub fn identifiability<S: MetriplecticSystem>(
         })
         .collect();
     // Directions K ⪰ 0 rules out are not ambiguities of the fit.
-    let excluded = excluded_by_positivity::<S>(model, data, &null, &scale, &free_theta, columns)?;
+    let excluded = excluded_by_positivity::<S>(
+        model,
+        data,
+        &null,
+        &scale,
+        &free_theta,
+        columns,
+        theta_shift.as_ref(),
+    )?;
     let mut remaining = null.clone();
     for u in &excluded {
         remaining = project_out(&remaining, u);
@@ -447,7 +486,14 @@ pub fn identifiability<S: MetriplecticSystem>(
         .into_iter()
         .map(|(kind, u)| {
             let singular_value = stretch(&u);
-            readable::<S>(kind, singular_value, &u, &scale, &free_theta, &free_psi)
+            readable::<S>(
+                kind,
+                singular_value,
+                &u,
+                &scale,
+                (&free_theta, &free_psi),
+                (theta_shift.as_ref(), psi_shift.as_ref()),
+            )
         })
         .collect();
     Ok(Identifiability {
@@ -522,6 +568,7 @@ fn excluded_by_positivity<S: MetriplecticSystem>(
     scale: &[f64],
     free_theta: &[usize],
     columns: usize,
+    shift: Option<&Shift>,
 ) -> Result<Vec<Vec<f64>>> {
     if null.is_empty() || free_theta.is_empty() {
         return Ok(Vec::new());
@@ -551,7 +598,15 @@ fn excluded_by_positivity<S: MetriplecticSystem>(
         };
         let largest = values.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
         let is_null: Vec<bool> = values.iter().map(|&v| v <= 1e-8 * largest).collect();
-        S::metric_features(x, &mut features);
+        // The θ columns read the metric's monomials where the search does.
+        match shift {
+            Some(shift) => {
+                let mut y = vec![0.0; n];
+                shift.centred_state(x, &mut y);
+                S::metric_features(&y, &mut features);
+            }
+            None => S::metric_features(x, &mut features),
+        }
         // The form δθ ↦ vᵀ δK(x) w on the scaled columns, restricted.
         let restricted = |v: &[f64], w: &[f64]| -> nalgebra::DVector<f64> {
             let mut row = vec![0.0; columns];
@@ -655,8 +710,8 @@ fn readable<S: MetriplecticSystem>(
     singular_value: f64,
     scaled: &[f64],
     scale: &[f64],
-    free_theta: &[usize],
-    free_psi: &[usize],
+    (free_theta, free_psi): (&[usize], &[usize]),
+    (theta_shift, psi_shift): (Option<&Shift>, Option<&Shift>),
 ) -> FlatDirection {
     let mut entropy = vec![0.0; S::entropy_coefficient_count()];
     let mut metric = vec![0.0; S::metric_coefficient_count()];
@@ -665,6 +720,13 @@ fn readable<S: MetriplecticSystem>(
             None => metric[free_theta[c]] = y / d,
             Some(k) => entropy[free_psi[k]] = y / d,
         }
+    }
+    // Reported on the coefficients in x.
+    if let Some(shift) = theta_shift {
+        metric = shift.to_original(&metric);
+    }
+    if let Some(shift) = psi_shift {
+        entropy = shift.to_original(&entropy);
     }
     let largest =
         entropy

@@ -8,14 +8,15 @@ use serde::{Deserialize, Serialize};
 use super::config::IdentifyConfig;
 use super::history::{History, StepOutcome};
 use super::search::{
-    centred_entropy_regression, entropy_regression, entropy_shift, metric_regression,
+    centred_entropy_regression, centred_metric_regression, entropy_regression, entropy_shift,
+    metric_regression,
 };
 use crate::analysis::identifiability::{data_states, hamiltonian_coefficients};
 use crate::data::IdentificationData;
 use crate::error::Num;
 use crate::error::Result;
 use crate::model::classical::{self, Equalities};
-use crate::model::Model;
+use crate::model::{Layout, Model};
 use crate::solve::linalg::{singular_values, symmetric_eigenvalues, triangular_factor};
 use crate::solve::Regression;
 use crate::system::{CertificateMode, MetriplecticSystem};
@@ -458,7 +459,15 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             warnings.push(IdentifyWarning::MetricAtBound { eigenvalue, eta });
         }
     }
-    let metric = metric_regression::<S>(data, psi)?;
+    // A region far from the origin: θ's columns as the searches read them.
+    let layout = Layout::of::<S>(config.search.sos.tables::<S>());
+    let metric = match layout.shift() {
+        // Not with a support or classical rows, which are on θ in x.
+        Some(shift) if metric_rows.is_empty() && free.len() == S::metric_coefficient_count() => {
+            centred_metric_regression::<S>(shift, data, psi)?
+        }
+        _ => metric_regression::<S>(data, psi)?,
+    };
     let unknowns = free.len().saturating_sub(metric_rows.len());
     if let Some(rank) = numerical_rank(&metric, &free, &metric_rows) {
         if rank < unknowns {
@@ -484,14 +493,14 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             }
         }
     }
-    let misfit = relative_residual(data, &entropy, psi);
-    // Judged by medians, as the L1 fit is: outliers the fit rightly ignores
-    // leave large residuals that say nothing about the rest.
     // The entropy rows are in the coordinates the searches fit.
     let searched = match &centre {
         Some(centre) => centre.to_centred(psi),
         None => psi.to_vec(),
     };
+    let misfit = relative_residual(data, &entropy, &searched);
+    // Judged by medians, as the L1 fit is: outliers the fit rightly ignores
+    // leave large residuals that say nothing about the rest.
     let typical = typical_relative_residual(data, &entropy, &searched);
     if typical >= POOR_FIT {
         // A fit this poor says nothing about symmetries of the data.

@@ -23,7 +23,7 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::gram::{monomial_scale, region_coordinates, Layout};
+use super::gram::{monomial_scale, region_coordinates, state_scale, Layout};
 use super::shift::Shift;
 use crate::error::{Error, Result};
 use crate::solve::linalg::symmetric_eigen;
@@ -321,11 +321,11 @@ fn certify_block<S: MetriplecticSystem>(
     // certificates (`Layout`): K(x) ⪰ 0 for every x exactly when
     // K(c + y) ⪰ 0 for every y.
     let (centre, rho) = region_coordinates::<S>();
-    let shift = centre.and_then(|c| Shift::new(S::METRIC_EXPONENTS, c));
-    let theta: &[f64] = &match &shift {
-        Some(shift) => shift.to_centred(theta),
-        None => theta.to_vec(),
-    };
+    let (theta, rho): (&[f64], Vec<f64>) =
+        match centre.and_then(|c| Shift::new(S::METRIC_EXPONENTS, c)) {
+            Some(shift) => (&shift.to_centred(theta), rho),
+            None => (theta, state_scale::<S>()),
+        };
     let exponents = S::METRIC_EXPONENTS;
     let degree_of = |e: &[u32]| e.iter().sum::<u32>();
     // The variables and the degree the block's entries use.

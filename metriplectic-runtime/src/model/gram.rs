@@ -12,6 +12,9 @@
 //! Σ_lower  Σ_{(β,γ,c)} c·Qᵦ[(j,β),(k,γ)] = θⱼₖ,α          (0 above the metric basis)
 //! Σ_upper  Σ_{(β,γ,c)} c·Qᵦ[(j,β),(k,γ)] = η[j=k][α=0] − θⱼₖ,α
 //! ```
+//!
+//! (for a region far from the origin, on the monomials of y = x − c and
+//! with θ the coefficients of K(c + y); see [`Layout`]).
 
 use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;

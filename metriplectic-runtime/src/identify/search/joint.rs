@@ -40,7 +40,9 @@ pub struct JointStep {
 /// `radius`: coefficient k moves by at most `radius` times its width, the
 /// larger of its own size and ‖t‖₁/‖Aₖ‖₁, the size it would need to account
 /// alone for the current residual — so that the radius means the same in
-/// any units.
+/// any units. For states or a region far from the origin, the coefficients
+/// are those of the centred coordinates the step works in (the box
+/// |ψ + d| ≤ η stays on the coefficients in x; `docs/method.md` §2).
 ///
 /// Errors on invalid input; solver trouble is reported in the status.
 ///

@@ -44,7 +44,9 @@ pub struct MetricSearch {
 /// The returned θ is recomputed from the solver's lower Gram matrices
 /// (taken from the cone slacks, which lie in the PSD cones), so the lower
 /// certificate holds on the metric basis exactly and K(x) ⪰ 0 up to
-/// rounding whatever the solver's feasibility tolerance. For a classical
+/// rounding whatever the solver's feasibility tolerance (for a region far
+/// from the origin, up to the rounding of converting θ from the centred
+/// coordinates the certificate is in). For a classical
 /// system the rows K(x)∇H(x) ≡ 0 are imposed too, and θ is projected onto
 /// them (a change of the size of the solver's equality residual).
 pub fn metric_search<S: MetriplecticSystem>(

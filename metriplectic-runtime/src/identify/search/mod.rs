@@ -16,7 +16,7 @@ pub use joint::{joint_step, JointStep};
 pub use metric::{metric_search, MetricSearch};
 pub use sos::SosBasis;
 
-pub(crate) use centre::{centred_entropy_regression, entropy_shift};
+pub(crate) use centre::{centred_entropy_regression, centred_metric_regression, entropy_shift};
 pub(crate) use entropy::entropy_regression;
 pub(crate) use metric::metric_regression;
 pub(crate) use sos::certificate_free_metric;
