@@ -432,23 +432,31 @@ pub trait MetriplecticSystem: Copy + Default + Send + Sync + std::fmt::Debug + '
             for (row, out) in drift.iter_mut().enumerate() {
                 *out = dot(&poisson[row * n..(row + 1) * n], gradient);
             }
-            // K(x; θ) g: θ_jk,a multiplies φ_a g_k in row j and φ_a g_j in row k.
             Self::monomials(x, features);
-            block.fill(0.0);
-            let mut pair = 0;
-            for row in 0..n {
-                for column in row..n {
-                    for (a, feature) in features.iter().enumerate() {
-                        let coefficient = pair * m + a;
-                        block[row * width + coefficient] += feature * gradient[column];
-                        if row != column {
-                            block[column * width + coefficient] += feature * gradient[row];
-                        }
-                    }
-                    pair += 1;
+            metric_rows(features, gradient, block);
+        });
+    }
+}
+
+/// The rows of θ ↦ K(θ) g into `block` (`n × n(n+1)/2·m`, row-major) for
+/// the metric monomials' values `features` (m) and g = `gradient` (n):
+/// θ_jk,a multiplies φ_a g_k in row j and φ_a g_j in row k.
+pub(crate) fn metric_rows(features: &[f64], gradient: &[f64], block: &mut [f64]) {
+    let (n, m) = (gradient.len(), features.len());
+    let width = block.len() / n.max(1);
+    block.fill(0.0);
+    let mut pair = 0;
+    for row in 0..n {
+        for column in row..n {
+            for (a, feature) in features.iter().enumerate() {
+                let coefficient = pair * m + a;
+                block[row * width + coefficient] += feature * gradient[column];
+                if row != column {
+                    block[column * width + coefficient] += feature * gradient[row];
                 }
             }
-        });
+            pair += 1;
+        }
     }
 }
 

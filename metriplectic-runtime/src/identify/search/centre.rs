@@ -9,7 +9,7 @@ use crate::data::IdentificationData;
 use crate::error::Result;
 use crate::model::{far_centre, Shift};
 use crate::solve::Regression;
-use crate::system::MetriplecticSystem;
+use crate::system::{metric_rows, MetriplecticSystem};
 
 use super::check_sample_rows;
 
@@ -104,21 +104,7 @@ pub(crate) fn centred_metric_regression<S: MetriplecticSystem>(
             }
             shift.centred_state(x, &mut s.y);
             S::monomials(&s.y, &mut s.basis);
-            // K(y; θ) g: θ_jk,a multiplies φ_a g_k in row j and φ_a g_j in row k.
-            block.fill(0.0);
-            let mut pair = 0;
-            for row in 0..n {
-                for column in row..n {
-                    for (a, feature) in s.basis.iter().enumerate() {
-                        let coefficient = pair * m + a;
-                        block[row * width + coefficient] += feature * s.gradient[column];
-                        if row != column {
-                            block[column * width + coefficient] += feature * s.gradient[row];
-                        }
-                    }
-                    pair += 1;
-                }
-            }
+            metric_rows(&s.basis, &s.gradient, block);
             check_sample_rows(j, x, block, drift)
         },
     )?;
