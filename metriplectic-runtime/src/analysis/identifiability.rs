@@ -39,6 +39,10 @@ use crate::solve::linalg::{least_squares, triangular_factor_by_blocks};
 use crate::solve::Regression;
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
+/// [`IdentifiabilityOptions::tolerance`]'s default, shared with the
+/// rank warnings of an identification.
+pub(crate) const DEFAULT_TOLERANCE: f64 = 1e-8;
+
 /// The largest relative stretch of the scale direction that still counts as
 /// the exact scale symmetry, whatever the options' tolerance.
 const EXACT_SYMMETRY: f64 = 1e-6;
@@ -64,7 +68,7 @@ pub struct IdentifiabilityOptions {
 impl Default for IdentifiabilityOptions {
     fn default() -> Self {
         Self {
-            tolerance: 1e-8,
+            tolerance: DEFAULT_TOLERANCE,
             search: SearchOptions::default(),
         }
     }
@@ -134,7 +138,12 @@ pub struct Identifiability {
     /// Flat directions of the fit that K ⪰ 0 excludes (to second order,
     /// both signs indefinite at some data state: e.g. an off-diagonal
     /// entry in a zero row of K), counted as determined: no admissible
-    /// model lies along them. 0 when read from an older report.
+    /// model lies along them. They are determined less sharply than the
+    /// others: a step t along one stays admissible with a change of order
+    /// t² in the zero row, which moves the fit by order t², so a fit
+    /// accurate to ε fixes them only to about √ε (a probe's exact fit to
+    /// 1e-9 returned an off-diagonal of 1.7e-4 where the truth has 0).
+    /// 0 when read from an older report.
     #[serde(default)]
     pub excluded_by_positivity: usize,
     /// The fit's residual against the effect of its coefficients,
@@ -170,7 +179,9 @@ impl std::fmt::Display for Identifiability {
             if self.excluded_by_positivity > 0 {
                 write!(
                     f,
-                    "; K ⪰ 0 excludes {} flat direction(s) of the fit",
+                    "; K ⪰ 0 excludes {} flat direction(s) of the fit, to second order only: \
+                     along them the coefficients are determined to about the square root of \
+                     the fit's relative accuracy",
                     self.excluded_by_positivity
                 )?;
             }

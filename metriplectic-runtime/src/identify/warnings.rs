@@ -21,8 +21,14 @@ use crate::solve::linalg::{singular_values, symmetric_eigenvalues, triangular_fa
 use crate::solve::Regression;
 use crate::system::{CertificateMode, MetriplecticSystem};
 
-/// Singular values below this fraction of the largest count as zero.
-const RANK_TOLERANCE: f64 = 1e-12;
+/// Singular values of the column-normalised block at most this fraction of
+/// the largest count as zero: the default tolerance of
+/// [`identifiability`](crate::identifiability), so that the warning and the
+/// report agree on what the data determine. A run from S = 0 that stopped
+/// with K off by 1e-7 lifted two flat Casimir directions of an entropy
+/// block to 7e-10 and 3e-9 of the largest; with 1e-12 on raw columns the
+/// warning missed them and ∇S came back 28% wrong without a word.
+const RANK_TOLERANCE: f64 = crate::analysis::identifiability::DEFAULT_TOLERANCE;
 
 /// An entropy coefficient within this fraction of η of ±η is at the bound
 /// (an interior-point solution stops a few digits short of an active bound).
@@ -696,7 +702,11 @@ pub(crate) fn failed_solves(history: &History) -> Vec<IdentifyWarning> {
 
 /// Numerical rank of the regression's `columns` on the subspace where the
 /// orthonormal `constraints` (dense over `columns`) vanish: the rank of A
-/// stacked over the constraints, less theirs. From the singular values of
+/// stacked over the constraints, less theirs. Columns are divided by their
+/// norms first (a column without data by 1), as the identifiability
+/// report's are, so that a basis whose monomials differ in size by many
+/// orders does not read as rank-deficient, and the constraints are
+/// rewritten in those units, each of norm one. From the singular values of
 /// the triangular factor formed from blocks of rows (A's own): the work is
 /// linear in the number of samples, so every run is checked, however
 /// large. `None` if the SVD fails.
@@ -711,28 +721,48 @@ fn numerical_rank(
     }
     let width = regression.width;
     let rows = regression.len();
-    // The constraints weigh as much as the data's largest column, so that
-    // neither falls below the other's rounding.
-    let weight = if constraints.is_empty() {
-        0.0
-    } else {
-        let mut norms = vec![0.0_f64; k];
-        for i in 0..rows {
-            for (norm, &j) in norms.iter_mut().zip(columns) {
-                *norm += regression.rows[i * width + j].powi(2);
-            }
+    let mut norms = vec![0.0_f64; k];
+    for i in 0..rows {
+        for (norm, &j) in norms.iter_mut().zip(columns) {
+            *norm += regression.rows[i * width + j].powi(2);
         }
-        norms.iter().fold(0.0_f64, |m, n| m.max(n.sqrt())).max(1.0)
-    };
-    let r = triangular_factor(rows + constraints.len(), k, |i, row| {
+    }
+    let largest_norm = norms.iter().fold(0.0_f64, |m, n| m.max(n.sqrt()));
+    let scale: Vec<f64> = norms
+        .iter()
+        .map(|n| n.sqrt())
+        .map(|n| {
+            if n > 1e-300 * largest_norm.max(1e-300) {
+                n
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    // A constraint g·c = 0 reads (g / D)·(D c) = 0 on the scaled columns;
+    // orthonormalised again there (modified Gram–Schmidt), so that each
+    // counts once whatever D does to the angles between them.
+    let mut scaled_constraints: Vec<Vec<f64>> = Vec::with_capacity(constraints.len());
+    for g in constraints {
+        let mut row: Vec<f64> = g.iter().zip(&scale).map(|(w, d)| w / d).collect();
+        let before = row.iter().map(|w| w * w).sum::<f64>().sqrt();
+        for q in &scaled_constraints {
+            let dot: f64 = row.iter().zip(q).map(|(a, b)| a * b).sum();
+            row.iter_mut().zip(q).for_each(|(a, b)| *a -= dot * b);
+        }
+        let size = row.iter().map(|w| w * w).sum::<f64>().sqrt();
+        if size > 1e-12 * before {
+            row.iter_mut().for_each(|w| *w /= size);
+            scaled_constraints.push(row);
+        }
+    }
+    let r = triangular_factor(rows + scaled_constraints.len(), k, |i, row| {
         if i < rows {
-            for (target, &j) in row.iter_mut().zip(columns) {
-                *target = regression.rows[i * width + j];
+            for ((target, &j), d) in row.iter_mut().zip(columns).zip(&scale) {
+                *target = regression.rows[i * width + j] / d;
             }
         } else {
-            for (target, value) in row.iter_mut().zip(&constraints[i - rows]) {
-                *target = weight * value;
-            }
+            row.copy_from_slice(&scaled_constraints[i - rows]);
         }
     });
     let singular = singular_values(&r)?;
@@ -744,7 +774,7 @@ fn numerical_rank(
         .iter()
         .filter(|&&s| s > RANK_TOLERANCE * largest)
         .count();
-    Some(stacked.saturating_sub(constraints.len()))
+    Some(stacked.saturating_sub(scaled_constraints.len()))
 }
 
 #[cfg(test)]
@@ -825,6 +855,26 @@ mod tests {
         assert!(rows as f64 * (width * width) as f64 > 2e9);
         assert_eq!(numerical_rank(&regression, &all, &[]), Some(width - 1));
         assert_eq!(numerical_rank(&regression, &all[2..], &[]), Some(width - 2));
+    }
+
+    /// Columns are compared in their own units: a column a million times
+    /// smaller than the others is no dependence, but a column that is
+    /// another's multiple up to 1e-10 of it is.
+    #[test]
+    fn the_rank_reads_normalised_columns() {
+        let (rows, width) = (200, 3);
+        let mut data = Vec::with_capacity(rows * width);
+        for i in 0..rows {
+            let t = i as f64 / rows as f64;
+            data.extend([1.0 + t, 1e-9 * t * t, 2.0 * (1.0 + t) + 1e-10 * t.sin()]);
+        }
+        let regression = Regression {
+            width,
+            rows: data,
+            target: vec![0.0; rows],
+        };
+        assert_eq!(numerical_rank(&regression, &[0, 1], &[]), Some(2));
+        assert_eq!(numerical_rank(&regression, &[0, 1, 2], &[]), Some(2));
     }
 
     /// Equalities fix combinations whatever the data: the rank is counted
