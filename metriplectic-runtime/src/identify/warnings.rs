@@ -301,8 +301,10 @@ impl std::fmt::Display for IdentifyWarning {
                 f,
                 "{failed} of {attempted} {subproblem} failed (the solver's status was not \
                  usable, or its result was refused), so what they search stayed near the start; \
-                 the history's statuses say more. Badly scaled states (or a region far from the \
-                 origin) are a common cause: rescale or centre the state variables"
+                 the history's statuses say more. Common causes: badly scaled states or a \
+                 region far from the origin (rescale or centre the state variables), or \
+                 coefficients many orders apart, as of a fast and a slow mode (start from the \
+                 default entropy, or try SolverBackend::Clarabel, cargo feature `clarabel`)"
             ),
             Self::StillImproving {
                 cost,
