@@ -859,7 +859,7 @@ mod tests {
         assert_eq!(numerical_rank(&regression, &all[2..], &[]), Some(width - 2));
     }
 
-    /// Columns are compared in their own units: a column a million times
+    /// Columns are compared in their own units: a column a billion times
     /// smaller than the others is no dependence, but a column that is
     /// another's multiple up to 1e-10 of it is.
     #[test]
