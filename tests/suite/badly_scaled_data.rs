@@ -410,5 +410,16 @@ fn fast_and_slow_modes_identify_from_zero_entropy() {
     assert_eq!(run.stop_reason, StopReason::Converged, "{:?}", run.warnings);
     let error = relative_field_error(&run.model, &held_out);
     assert!(error <= 1e-6, "held-out field error {error:e}");
-    assert!(run.warnings.is_empty(), "{:?}", run.warnings);
+    // The field is determined; the fast mode's S and K are not, together:
+    // a damped linear oscillator gives four equations (ẋ = Mx) for six
+    // unknowns (three quadratic terms of S, three entries of K), and each
+    // block alone is determined at the other's value.
+    assert!(
+        matches!(
+            run.warnings.as_slice(),
+            [IdentifyWarning::JointlyUndetermined { directions: 2, .. }]
+        ),
+        "{:?}",
+        run.warnings
+    );
 }

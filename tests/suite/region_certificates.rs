@@ -195,10 +195,21 @@ fn a_region_far_from_the_origin_is_identified() {
         assert!(field <= 1e-6, "cold start {cold}: field error {field:e}");
         // K's dependence on T is weakly determined by these data: the same
         // system written in T − 300 gets 1.9e-4 from exact samples and
-        // 8.9e-4 with relative noise of 1e-8 on ẋ (the floor above); this
-        // run measured 8.4e-4.
+        // 8.9e-4 with relative noise of 1e-8 on ẋ (the floor above); runs
+        // measured 8.4e-4 to 1.1e-3.
         assert!(metric <= 2e-3, "cold start {cold}: metric error {metric:e}");
-        assert!(run.warnings.is_empty(), "{:?}", run.warnings);
+        // And the run says so: one combination of S and K, a quartic in T
+        // with K₁₁'s dependence on T, has singular value 2.3e-9, below the
+        // identifiability report's tolerance (1e-8) and the floor of these
+        // samples (each block alone is determined at the other's value).
+        assert!(
+            matches!(
+                run.warnings.as_slice(),
+                [IdentifyWarning::JointlyUndetermined { directions: 1, .. }]
+            ),
+            "{:?}",
+            run.warnings
+        );
         // The kept certificate (over the monomials of T − 300) proves both
         // bounds, and K ⪰ 0 holds on the region and far beyond it.
         let certificate = run.model.certificate().expect("a certificate");

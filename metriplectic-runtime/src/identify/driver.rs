@@ -35,11 +35,12 @@ pub struct Identification<S: MetriplecticSystem> {
     pub stop_reason: StopReason,
     /// What the data cannot determine, and whether the run stopped at its
     /// iteration cap while still improving: read these before trusting the
-    /// coefficients. Empty when the run ended on its own, each block's
-    /// coefficients are determined at the other's value, and the scale
-    /// (K, E) ↦ (cK, E/c) is fixed; combinations across the two blocks
-    /// that the data leave free are the
-    /// [`identifiability`](crate::identifiability) report's to find.
+    /// coefficients. Empty when the run ended on its own, the data
+    /// determine the coefficients (each block at the other's value, and
+    /// the two together: the latter from the
+    /// [`identifiability`](crate::identifiability) report, which names the
+    /// combinations), and the scale (K, E) ↦ (cK, E/c) is fixed.
+    /// Combinations hidden only by the fit's misfit are the report's alone.
     pub warnings: Vec<IdentifyWarning>,
 }
 

@@ -184,6 +184,21 @@ pub enum IdentifyWarning {
         /// The bound η the run used.
         eta: f64,
     },
+    /// Each block's coefficients are determined at the other's value, but
+    /// `directions` combinations of the two blocks together are not: the
+    /// data cannot tell changes of S and K along them apart (a damped
+    /// linear oscillator, for one, gives four equations, ẋ = Mx, for six
+    /// unknowns: three quadratic terms of S and three entries of K). The field is determined; those combinations of S
+    /// and K are not. [`identifiability`](crate::identifiability) names
+    /// them. Counted as its `FlatKind::Data` directions, without the scale
+    /// symmetry (its own warning) and without directions hidden only by
+    /// the misfit; not raised when a block's own rank is already short.
+    JointlyUndetermined {
+        /// Undetermined combinations of entropy and metric coefficients.
+        directions: usize,
+        /// Unknown coefficients analysed.
+        unknowns: usize,
+    },
     /// Most solves of one subproblem failed (status not usable, or a result
     /// the model refused), so the coefficients it searches stayed near the
     /// start or an early iterate.
@@ -292,6 +307,19 @@ impl std::fmt::Display for IdentifyWarning {
                  bound K ⪯ ηI, η = {}: the bound may have cut off the metric the data need; \
                  raise SearchOptions::eta",
                 Num(*eta)
+            ),
+            Self::JointlyUndetermined {
+                directions,
+                unknowns,
+            } => write!(
+                f,
+                "the data leave {directions} combination{} of entropy and metric coefficients \
+                 undetermined (of {unknowns} unknowns; each block alone is determined at the \
+                 other's value): the field is fitted, but S and K are not fixed along {}; \
+                 `identifiability` names {}",
+                if *directions == 1 { "" } else { "s" },
+                if *directions == 1 { "it" } else { "them" },
+                if *directions == 1 { "it" } else { "them" },
             ),
             Self::FailedSolves {
                 subproblem,
@@ -529,12 +557,63 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         }
     }
     let symmetric = S::CLASSICAL.is_some() || poisson_is_zero == Some(true);
-    if symmetric && scale_is_free(data, model, config) {
+    let scale_free = symmetric && scale_is_free(data, model, config);
+    if scale_free {
         warnings.push(IdentifyWarning::ScaleSymmetry {
             classical: S::CLASSICAL.is_some(),
         });
     }
+    let blocks_short = warnings.iter().any(|w| {
+        matches!(
+            w,
+            IdentifyWarning::Underdetermined { .. } | IdentifyWarning::RankDeficient { .. }
+        )
+    });
+    if !blocks_short {
+        if let Some(warning) = joint_warning(data, model, config, scale_free) {
+            warnings.push(warning);
+        }
+    }
     Ok(warnings)
+}
+
+/// [`IdentifyWarning::JointlyUndetermined`] from the identifiability
+/// report of `model` on `data`, if it names directions the data do not
+/// determine beyond the scale symmetry (`scale_free`: already warned of).
+/// A report that cannot be made (its SVD failed) gives none: the warnings
+/// never fail a run.
+fn joint_warning<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+    model: &Model<S>,
+    config: &IdentifyConfig,
+    scale_free: bool,
+) -> Option<IdentifyWarning> {
+    use crate::analysis::identifiability::{identifiability, FlatKind, IdentifiabilityOptions};
+    let options = IdentifiabilityOptions {
+        search: config.search.clone(),
+        ..IdentifiabilityOptions::default()
+    };
+    let report = identifiability(model, data, &options).ok()?;
+    let named_scale = report
+        .flat_directions
+        .iter()
+        .any(|d| d.kind == FlatKind::ScaleSymmetry);
+    let data_directions = report
+        .flat_directions
+        .iter()
+        .filter(|d| d.kind == FlatKind::Data)
+        .count();
+    // The scale direction, when the report did not recognise it as such,
+    // is among its data directions: it has its own warning.
+    let directions = if scale_free && !named_scale {
+        data_directions.saturating_sub(1)
+    } else {
+        data_directions
+    };
+    (directions > 0).then_some(IdentifyWarning::JointlyUndetermined {
+        directions,
+        unknowns: report.unknowns,
+    })
 }
 
 /// A fit with at least this typical relative residual explains little of
