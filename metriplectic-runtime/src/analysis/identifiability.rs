@@ -22,7 +22,7 @@
 //! exact degeneracy of the model by an amount of the noise's size, and the
 //! singular values of those directions grow with the noise.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DMatrixViewMut};
 use serde::{Deserialize, Serialize};
 
 use crate::data::IdentificationData;
@@ -35,7 +35,9 @@ use crate::identify::SearchOptions;
 use crate::model::classical::{self, Equalities};
 use crate::model::{polynomial, Model};
 use crate::model::{Layout, Shift};
-use crate::solve::linalg::{least_squares, triangular_factor_by_blocks};
+use crate::solve::linalg::{
+    column_scales, full_rank_on_rows, least_squares, strided_rows, triangular_factor_by_blocks,
+};
 use crate::solve::Regression;
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
@@ -274,126 +276,71 @@ pub fn identifiability<S: MetriplecticSystem>(
     data: &impl IdentificationData,
     options: &IdentifiabilityOptions,
 ) -> Result<Identifiability> {
-    crate::data::check_dataset::<S>(data)?;
-    options.search.validate_for::<S>()?;
-    if !(options.tolerance.is_finite() && options.tolerance > 0.0 && options.tolerance < 1.0) {
-        return Err(invalid(
-            "identifiability tolerance",
-            format!("{} is not in (0, 1)", options.tolerance),
-        ));
+    let jacobian = ScaledJacobian::new(model, data, options)?;
+    report(&jacobian, model, data, options)
+}
+
+/// The report of [`identifiability`], or `None` when a subset of the
+/// Jacobian's rows already shows that the data determine every direction
+/// (the report would name no [`FlatKind::Data`] direction): what an
+/// identification's joint warning asks, without factoring every row where
+/// the answer is no. The same errors.
+pub(crate) fn report_unless_determined<S: MetriplecticSystem>(
+    model: &Model<S>,
+    data: &impl IdentificationData,
+    options: &IdentifiabilityOptions,
+) -> Result<Option<Identifiability>> {
+    let jacobian = ScaledJacobian::new(model, data, options)?;
+    if jacobian.all_determined(options.tolerance) {
+        return Ok(None);
     }
-    let psi = model.entropy_coefficients();
-    let theta = model.metric_coefficients();
-    let support = &options.search.support;
-    // The report is about the coefficients the support leaves free: a model
-    // it does not describe is not the fit it analyses.
-    support.check_model("model", psi, theta)?;
-    let free_psi = support.free_entropy::<S>();
-    let free_theta = support.free_metric::<S>(options.search.sos);
-    // On states or a region far from the origin the analysis reads the
-    // columns in the searches' centred coordinates (`docs/method.md` §2),
-    // where the monomials are not collinear to rounding, and reports its
-    // directions in x. A gauge or classical rows (on x) keep it in x.
-    let plain = options.search.gauge.is_none() && S::CLASSICAL.is_none();
-    let psi_shift = plain.then(|| entropy_shift::<S>(data, &free_psi)).flatten();
-    let theta_shift = (plain && free_theta.len() == S::metric_coefficient_count())
-        .then(|| {
-            Layout::of::<S>(options.search.sos.tables::<S>())
-                .shift()
-                .cloned()
-        })
-        .flatten();
+    report(&jacobian, model, data, options).map(Some)
+}
+
+/// [`identifiability`] from the model's scaled Jacobian on the data.
+fn report<S: MetriplecticSystem>(
+    jacobian: &ScaledJacobian,
+    model: &Model<S>,
+    data: &impl IdentificationData,
+    options: &IdentifiabilityOptions,
+) -> Result<Identifiability> {
+    let ScaledJacobian {
+        entries:
+            JacobianEntries {
+                entropy_rows,
+                free_theta,
+                free_psi,
+                ..
+            },
+        theta_shift,
+        psi_shift,
+        scale,
+        basis,
+        ..
+    } = jacobian;
+    let (psi, theta) = (model.entropy_coefficients(), model.metric_coefficients());
     let in_columns = |shift: Option<&Shift>, values: &[f64]| match shift {
         Some(shift) => shift.to_centred(values),
         None => values.to_vec(),
-    };
-    let metric_rows = match &theta_shift {
-        Some(shift) => centred_metric_regression::<S>(shift, data, psi)?,
-        None => metric_regression::<S>(data, psi)?,
-    };
-    let entropy_rows = match &psi_shift {
-        Some(shift) => centred_entropy_regression::<S>(shift, data, theta)?,
-        None => entropy_regression::<S>(data, theta)?,
     };
     // The coefficients as the columns read them.
     let (theta_columns, psi_columns) = (
         in_columns(theta_shift.as_ref(), theta),
         in_columns(psi_shift.as_ref(), psi),
     );
-    // Columns: free θ, then free ψ.
-    let columns = free_theta.len() + free_psi.len();
-    let column = |row: usize, c: usize| {
-        if c < free_theta.len() {
-            metric_rows.rows[row * metric_rows.width + free_theta[c]]
-        } else {
-            entropy_rows.rows[row * entropy_rows.width + free_psi[c - free_theta.len()]]
-        }
-    };
-    let rows = metric_rows.len();
-    let mut norms = vec![0.0_f64; columns];
-    for row in 0..rows {
-        for (c, norm) in norms.iter_mut().enumerate() {
-            *norm += column(row, c).powi(2);
-        }
-    }
-    norms.iter_mut().for_each(|n| *n = n.sqrt());
-    let largest_norm = norms.iter().fold(0.0_f64, |m, n| m.max(*n));
-    // A column without data is scaled by 1: it stays zero and is flat.
-    let scale: Vec<f64> = norms
-        .iter()
-        .map(|&n| {
-            if n > 1e-300 * largest_norm.max(1e-300) {
-                n
-            } else {
-                1.0
-            }
-        })
-        .collect();
-
-    // Coordinates: the free coefficients, each divided by its column norm;
-    // only the directions that keep the gauge and, for a classical system,
-    // the constraints (in scaled coordinates y = D c a row g reads g / D).
-    let mut fixed: Vec<Vec<f64>> = Vec::new();
+    let (rows, columns, width) = (
+        jacobian.entries.rows(),
+        jacobian.entries.count(),
+        basis.ncols(),
+    );
+    let column = |row: usize, c: usize| jacobian.entries.entry(row, c);
     let gauge_fixed = options.search.gauge.is_some();
-    if let Some(gauge) = options.search.gauge {
-        let (row, _) = gauge.row::<S>();
-        let mut g = vec![0.0; columns];
-        for (t, w) in row {
-            if let Ok(c) = free_theta.binary_search(&t) {
-                g[c] = w / scale[c];
-            }
-        }
-        fixed.push(g);
-    }
     let classical = S::CLASSICAL.is_some();
-    for (rows, free, offset) in [
-        (classical::metric_rows::<S>(), &free_theta, 0),
-        (classical::entropy_rows::<S>(), &free_psi, free_theta.len()),
-    ] {
-        for row in Equalities::new(rows, free).dense_rows() {
-            let mut g = vec![0.0; columns];
-            for (j, w) in row.into_iter().enumerate() {
-                g[offset + j] = w / scale[offset + j];
-            }
-            fixed.push(g);
-        }
-    }
-    let basis = orthogonal_complement(&fixed, columns)?;
-
     // R of the QR factorisation of J D⁻¹ B, streamed by blocks of rows (a
     // square factor, with zero rows when there are fewer equations than
     // unknowns).
-    let width = basis.ncols();
-    let reduced = !basis.is_identity(0.0);
-    let square = triangular_factor_by_blocks(rows, width, |first, mut block| {
-        let scaled = DMatrix::from_fn(block.nrows(), columns, |i, c| {
-            column(first + i, c) / scale[c]
-        });
-        if reduced {
-            block.gemm(1.0, &scaled, &basis, 0.0);
-        } else {
-            block.copy_from(&scaled);
-        }
+    let square = triangular_factor_by_blocks(rows, width, |first, block| {
+        jacobian.fill_scaled_rows(|i| i, first, block)
     });
     let (_, singular, v) = crate::solve::linalg::svd(&square)
         .ok_or_else(|| invalid("identifiability", "the singular value decomposition failed"))?;
@@ -404,9 +351,9 @@ pub fn identifiability<S: MetriplecticSystem>(
         .max(f64::MIN_POSITIVE);
     let relative: Vec<f64> = singular.iter().map(|s| s / top).collect();
     let misfit = misfit(
-        &entropy_rows,
+        entropy_rows,
         &psi_columns,
-        scaled_size(&scale, &free_theta, &free_psi, &theta_columns, &psi_columns),
+        scaled_size(scale, free_theta, free_psi, &theta_columns, &psi_columns),
         top,
     );
     let cut = options.tolerance.max(misfit);
@@ -467,8 +414,8 @@ pub fn identifiability<S: MetriplecticSystem>(
         model,
         data,
         &null,
-        &scale,
-        &free_theta,
+        scale,
+        free_theta,
         columns,
         theta_shift.as_ref(),
     )?;
@@ -501,8 +448,8 @@ pub fn identifiability<S: MetriplecticSystem>(
                 kind,
                 singular_value,
                 &u,
-                &scale,
-                (&free_theta, &free_psi),
+                scale,
+                (free_theta, free_psi),
                 (theta_shift.as_ref(), psi_shift.as_ref()),
             )
         })
@@ -517,6 +464,188 @@ pub fn identifiability<S: MetriplecticSystem>(
         excluded_by_positivity: excluded.len(),
         misfit,
     })
+}
+
+/// The Jacobian's entries, unscaled: rows one per equation component,
+/// columns the free θ, then the free ψ.
+struct JacobianEntries {
+    metric_rows: Regression,
+    entropy_rows: Regression,
+    free_theta: Vec<usize>,
+    free_psi: Vec<usize>,
+}
+
+impl JacobianEntries {
+    fn rows(&self) -> usize {
+        self.metric_rows.len()
+    }
+
+    fn count(&self) -> usize {
+        self.free_theta.len() + self.free_psi.len()
+    }
+
+    fn entry(&self, row: usize, c: usize) -> f64 {
+        let metric = self.free_theta.len();
+        if c < metric {
+            self.metric_rows.rows[row * self.metric_rows.width + self.free_theta[c]]
+        } else {
+            self.entropy_rows.rows[row * self.entropy_rows.width + self.free_psi[c - metric]]
+        }
+    }
+}
+
+/// The fit's exact Jacobian J in the report's coordinates: its entries (in
+/// centred coordinates where the searches fit in them), each column divided
+/// by its norm (D), restricted to the directions B that keep the gauge and
+/// a classical system's equalities.
+struct ScaledJacobian {
+    entries: JacobianEntries,
+    theta_shift: Option<Shift>,
+    psi_shift: Option<Shift>,
+    scale: Vec<f64>,
+    /// ‖J D⁻¹‖²_F, at least ‖J D⁻¹ B‖²_F (B's columns are orthonormal);
+    /// not finite when an entry or a column's norm is not.
+    frobenius_squared: f64,
+    basis: DMatrix<f64>,
+    /// Whether B is other than the identity.
+    reduced: bool,
+}
+
+impl ScaledJacobian {
+    /// J of `model` on `data` with `options`' parameterisation; the
+    /// errors of [`identifiability`].
+    fn new<S: MetriplecticSystem>(
+        model: &Model<S>,
+        data: &impl IdentificationData,
+        options: &IdentifiabilityOptions,
+    ) -> Result<Self> {
+        crate::data::check_dataset::<S>(data)?;
+        options.search.validate_for::<S>()?;
+        if !(options.tolerance.is_finite() && options.tolerance > 0.0 && options.tolerance < 1.0) {
+            return Err(invalid(
+                "identifiability tolerance",
+                format!("{} is not in (0, 1)", options.tolerance),
+            ));
+        }
+        let psi = model.entropy_coefficients();
+        let theta = model.metric_coefficients();
+        let support = &options.search.support;
+        // The report is about the coefficients the support leaves free: a
+        // model it does not describe is not the fit it analyses.
+        support.check_model("model", psi, theta)?;
+        let free_psi = support.free_entropy::<S>();
+        let free_theta = support.free_metric::<S>(options.search.sos);
+        // On states or a region far from the origin the analysis reads the
+        // columns in the searches' centred coordinates (`docs/method.md`
+        // §2), where the monomials are not collinear to rounding, and
+        // reports its directions in x. A gauge or classical rows (on x)
+        // keep it in x.
+        let plain = options.search.gauge.is_none() && S::CLASSICAL.is_none();
+        let psi_shift = plain.then(|| entropy_shift::<S>(data, &free_psi)).flatten();
+        let theta_shift = (plain && free_theta.len() == S::metric_coefficient_count())
+            .then(|| {
+                Layout::of::<S>(options.search.sos.tables::<S>())
+                    .shift()
+                    .cloned()
+            })
+            .flatten();
+        let metric_rows = match &theta_shift {
+            Some(shift) => centred_metric_regression::<S>(shift, data, psi)?,
+            None => metric_regression::<S>(data, psi)?,
+        };
+        let entropy_rows = match &psi_shift {
+            Some(shift) => centred_entropy_regression::<S>(shift, data, theta)?,
+            None => entropy_regression::<S>(data, theta)?,
+        };
+        let entries = JacobianEntries {
+            metric_rows,
+            entropy_rows,
+            free_theta,
+            free_psi,
+        };
+        let columns = entries.count();
+        let (scale, frobenius_squared) =
+            column_scales(entries.rows(), columns, |row, c| entries.entry(row, c));
+        let (free_theta, free_psi) = (&entries.free_theta, &entries.free_psi);
+
+        // Coordinates: the free coefficients, each divided by its column
+        // norm; only the directions that keep the gauge and, for a
+        // classical system, the constraints (in scaled coordinates y = D c
+        // a row g reads g / D).
+        let mut fixed: Vec<Vec<f64>> = Vec::new();
+        if let Some(gauge) = options.search.gauge {
+            let (row, _) = gauge.row::<S>();
+            let mut g = vec![0.0; columns];
+            for (t, w) in row {
+                if let Ok(c) = free_theta.binary_search(&t) {
+                    g[c] = w / scale[c];
+                }
+            }
+            fixed.push(g);
+        }
+        for (rows, free, offset) in [
+            (classical::metric_rows::<S>(), free_theta, 0),
+            (classical::entropy_rows::<S>(), free_psi, free_theta.len()),
+        ] {
+            for row in Equalities::new(rows, free).dense_rows() {
+                let mut g = vec![0.0; columns];
+                for (j, w) in row.into_iter().enumerate() {
+                    g[offset + j] = w / scale[offset + j];
+                }
+                fixed.push(g);
+            }
+        }
+        let basis = orthogonal_complement(&fixed, columns)?;
+        let reduced = basis.ncols() != columns || !basis.is_identity(0.0);
+        Ok(Self {
+            entries,
+            theta_shift,
+            psi_shift,
+            scale,
+            frobenius_squared,
+            basis,
+            reduced,
+        })
+    }
+
+    /// Writes rows `first..first + block.nrows()` of the matrix whose row i
+    /// is row `row_of(i)` of J D⁻¹ B.
+    fn fill_scaled_rows(
+        &self,
+        row_of: impl Fn(usize) -> usize,
+        first: usize,
+        mut block: DMatrixViewMut<'_, f64>,
+    ) {
+        let scaled = DMatrix::from_fn(block.nrows(), self.entries.count(), |i, c| {
+            self.entries.entry(row_of(first + i), c) / self.scale[c]
+        });
+        if self.reduced {
+            block.gemm(1.0, &scaled, &self.basis, 0.0);
+        } else {
+            block.copy_from(&scaled);
+        }
+    }
+
+    /// Whether every singular value of J D⁻¹ B is shown to be above
+    /// `tolerance` times the largest, so that no direction is left to the
+    /// report's [`FlatKind::Data`], by the QR of a strided subset of the
+    /// rows ([`full_rank_on_rows`]). `false` means "not shown", never
+    /// "undetermined"; it is also `false` where the rows are too few for a
+    /// subset to save work. Runs with the scale symmetry are never shown:
+    /// its direction is exactly flat.
+    fn all_determined(&self, tolerance: f64) -> bool {
+        let width = self.basis.ncols();
+        let Some(subset) = strided_rows(self.entries.rows(), width) else {
+            return false;
+        };
+        full_rank_on_rows(
+            subset.len(),
+            width,
+            self.frobenius_squared,
+            tolerance,
+            |first, block| self.fill_scaled_rows(|i| subset[i], first, block),
+        )
+    }
 }
 
 /// ‖D c‖ for the free coefficients c = (θ, ψ) scaled by their column norms D.

@@ -17,7 +17,10 @@ use crate::error::Num;
 use crate::error::Result;
 use crate::model::classical::{self, Equalities};
 use crate::model::{Layout, Model};
-use crate::solve::linalg::{singular_values, symmetric_eigenvalues, triangular_factor};
+use crate::solve::linalg::{
+    column_scales, full_rank_on_rows, row_by_row, singular_values, strided_rows,
+    symmetric_eigenvalues, triangular_factor,
+};
 use crate::solve::Regression;
 use crate::system::{CertificateMode, MetriplecticSystem};
 
@@ -580,20 +583,24 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
 /// [`IdentifyWarning::JointlyUndetermined`] from the identifiability
 /// report of `model` on `data`, if it names directions the data do not
 /// determine beyond the scale symmetry (`scale_free`: already warned of).
-/// A report that cannot be made (its SVD failed) gives none: the warnings
-/// never fail a run.
+/// The report is made only where a subset of the rows does not show that
+/// the data determine everything (its QR over every row costs seconds at
+/// 10⁵ rows). A report that cannot be made (its SVD failed) gives none: the
+/// warnings never fail a run.
 fn joint_warning<S: MetriplecticSystem>(
     data: &impl IdentificationData,
     model: &Model<S>,
     config: &IdentifyConfig,
     scale_free: bool,
 ) -> Option<IdentifyWarning> {
-    use crate::analysis::identifiability::{identifiability, FlatKind, IdentifiabilityOptions};
+    use crate::analysis::identifiability::{
+        report_unless_determined, FlatKind, IdentifiabilityOptions,
+    };
     let options = IdentifiabilityOptions {
         search: config.search.clone(),
         ..IdentifiabilityOptions::default()
     };
-    let report = identifiability(model, data, &options).ok()?;
+    let report = report_unless_determined(model, data, &options).ok()??;
     let named_scale = report
         .flat_directions
         .iter()
@@ -787,10 +794,11 @@ pub(crate) fn failed_solves(history: &History) -> Vec<IdentifyWarning> {
 /// norms first (a column without data by 1), as the identifiability
 /// report's are, so that a basis whose monomials differ in size by many
 /// orders does not read as rank-deficient, and the constraints are
-/// rewritten in those units, each of norm one. From the singular values of
-/// the triangular factor formed from blocks of rows (A's own): the work is
-/// linear in the number of samples, so every run is checked, however
-/// large. `None` if the SVD fails.
+/// rewritten in those units, each of norm one. Full rank shown on a strided
+/// subset of the rows ([`full_rank_on_rows`]) ends there; otherwise from
+/// the singular values of the triangular factor formed from blocks of all
+/// the rows: the work is at most linear in the number of samples, so every
+/// run is checked, however large. `None` if the SVD fails.
 fn numerical_rank(
     regression: &Regression,
     columns: &[usize],
@@ -802,24 +810,8 @@ fn numerical_rank(
     }
     let width = regression.width;
     let rows = regression.len();
-    let mut norms = vec![0.0_f64; k];
-    for i in 0..rows {
-        for (norm, &j) in norms.iter_mut().zip(columns) {
-            *norm += regression.rows[i * width + j].powi(2);
-        }
-    }
-    let largest_norm = norms.iter().fold(0.0_f64, |m, n| m.max(n.sqrt()));
-    let scale: Vec<f64> = norms
-        .iter()
-        .map(|n| n.sqrt())
-        .map(|n| {
-            if n > 1e-300 * largest_norm.max(1e-300) {
-                n
-            } else {
-                1.0
-            }
-        })
-        .collect();
+    let (scale, frobenius_squared) =
+        column_scales(rows, k, |i, c| regression.rows[i * width + columns[c]]);
     // A constraint g·c = 0 reads (g / D)·(D c) = 0 on the scaled columns;
     // orthonormalised again there (modified Gram–Schmidt), so that each
     // counts once whatever D does to the angles between them.
@@ -837,7 +829,7 @@ fn numerical_rank(
             scaled_constraints.push(row);
         }
     }
-    let r = triangular_factor(rows + scaled_constraints.len(), k, |i, row| {
+    let fill_row = |i: usize, row: &mut [f64]| {
         if i < rows {
             for ((target, &j), d) in row.iter_mut().zip(columns).zip(&scale) {
                 *target = regression.rows[i * width + j] / d;
@@ -845,7 +837,18 @@ fn numerical_rank(
         } else {
             row.copy_from_slice(&scaled_constraints[i - rows]);
         }
-    });
+    };
+    // Full rank shown on a subset of the rows, every constraint row among
+    // them (each of norm 1), needs no QR of all of them.
+    if let Some(mut subset) = strided_rows(rows, k) {
+        subset.extend(rows..rows + scaled_constraints.len());
+        let bound = frobenius_squared + scaled_constraints.len() as f64;
+        let fill = row_by_row(|i, row| fill_row(subset[i], row));
+        if full_rank_on_rows(subset.len(), k, bound, RANK_TOLERANCE, fill) {
+            return Some(k.saturating_sub(scaled_constraints.len()));
+        }
+    }
+    let r = triangular_factor(rows + scaled_constraints.len(), k, fill_row);
     let singular = singular_values(&r)?;
     let largest = singular.first().copied().unwrap_or(0.0);
     if largest <= 0.0 {

@@ -523,6 +523,108 @@ fn householder_qr_in_place(m: &mut DMatrix<f64>) {
     );
 }
 
+/// The Euclidean norm of each of the `columns` columns of a `rows`-row
+/// matrix M (`entry(row, column)`), with 1 in place of a norm at most 1e-300
+/// of the largest, and ‖M D⁻¹‖²_F for D those scales. Dividing by them makes
+/// a rank decision read every column at unit size and leaves a column
+/// without data at zero, where it counts as flat. The sum is the exact
+/// squared norm of what is decided on (at most the number of columns), and
+/// not finite when an entry or a norm is not, where every column keeps
+/// scale 1.
+pub(crate) fn column_scales(
+    rows: usize,
+    columns: usize,
+    entry: impl Fn(usize, usize) -> f64,
+) -> (Vec<f64>, f64) {
+    let mut norms = vec![0.0_f64; columns];
+    for row in 0..rows {
+        for (c, norm) in norms.iter_mut().enumerate() {
+            *norm += entry(row, c).powi(2);
+        }
+    }
+    norms.iter_mut().for_each(|n| *n = n.sqrt());
+    let largest = norms.iter().fold(0.0_f64, |m, n| m.max(*n));
+    let scales: Vec<f64> = norms
+        .iter()
+        .map(|&n| {
+            if n > 1e-300 * largest.max(1e-300) {
+                n
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let frobenius_squared = norms
+        .iter()
+        .zip(&scales)
+        .map(|(n, d)| (n / d).powi(2))
+        .sum();
+    (scales, frobenius_squared)
+}
+
+/// Rows in a subset that shows full rank ([`full_rank_on_rows`]), per
+/// column: enough that the subset alone is well overdetermined, and one
+/// block of [`triangular_factor_by_blocks`]'s QR.
+const RANK_SUBSET: usize = 4;
+
+/// About `RANK_SUBSET` · n rows, evenly spread, of a matrix with `rows` rows
+/// and n columns, for [`full_rank_on_rows`]; `None` when the matrix has
+/// fewer than twice as many, too few for a subset to save work.
+pub(crate) fn strided_rows(rows: usize, n: usize) -> Option<Vec<usize>> {
+    let count = RANK_SUBSET * n.max(1);
+    (rows >= 2 * count).then(|| (0..count).map(|i| i * rows / count).collect())
+}
+
+/// Whether a matrix M with n columns certainly has every singular value
+/// above `tolerance` times its largest, shown on `count` of its rows (the
+/// subset M_S, whose rows `first..first + block.nrows()` `fill_block`
+/// writes) and `frobenius_squared`, an upper bound on ‖M‖²_F. Rows added to
+/// a matrix never lower any of its singular values, and
+/// σ₁(M)² ≤ σ₁(M_S)² + ‖M‖²_F − ‖M_S‖²_F, so σ_n(M_S) above `tolerance`
+/// times the square root of the right-hand side shows it. `false` means
+/// "not shown" (also when the subset has fewer rows than columns, its SVD
+/// fails or the bound is not finite), never "rank deficient".
+pub(crate) fn full_rank_on_rows(
+    count: usize,
+    n: usize,
+    frobenius_squared: f64,
+    tolerance: f64,
+    fill_block: impl FnMut(usize, DMatrixViewMut<'_, f64>),
+) -> bool {
+    if count < n {
+        return false;
+    }
+    let r = triangular_factor_by_blocks(count, n, fill_block);
+    let Some(singular) = singular_values(&r) else {
+        return false;
+    };
+    let (Some(&largest), Some(&smallest)) = (singular.first(), singular.last()) else {
+        return n == 0;
+    };
+    // ‖M_S‖_F = ‖R‖_F.
+    let subset_squared: f64 = singular.iter().map(|s| s * s).sum();
+    let bound = (largest * largest + (frobenius_squared - subset_squared).max(0.0)).sqrt();
+    // Comparisons with NaN are false: not shown.
+    smallest > tolerance * bound && bound.is_finite()
+}
+
+/// The block filler of [`triangular_factor_by_blocks`] from one that
+/// writes a row at a time (`fill_row(i, row)` writes row i).
+pub(crate) fn row_by_row(
+    fill_row: impl Fn(usize, &mut [f64]),
+) -> impl FnMut(usize, DMatrixViewMut<'_, f64>) {
+    let mut row = Vec::new();
+    move |first, mut block| {
+        row.resize(block.ncols(), 0.0);
+        for i in 0..block.nrows() {
+            fill_row(first + i, &mut row);
+            for (j, value) in row.iter().enumerate() {
+                block[(i, j)] = *value;
+            }
+        }
+    }
+}
+
 /// R (n × n, upper triangular) with RᵀR = MᵀM for the `rows` × `n` matrix M
 /// whose row i `fill_row(i, row)` writes; see [`triangular_factor_by_blocks`].
 pub(crate) fn triangular_factor(
@@ -530,15 +632,7 @@ pub(crate) fn triangular_factor(
     n: usize,
     fill_row: impl Fn(usize, &mut [f64]),
 ) -> DMatrix<f64> {
-    let mut row = vec![0.0; n];
-    triangular_factor_by_blocks(rows, n, |first, mut block| {
-        for i in 0..block.nrows() {
-            fill_row(first + i, &mut row);
-            for (j, value) in row.iter().enumerate() {
-                block[(i, j)] = *value;
-            }
-        }
-    })
+    triangular_factor_by_blocks(rows, n, row_by_row(fill_row))
 }
 
 /// R (n × n, upper triangular) with RᵀR = MᵀM for the `rows` × `n` matrix M
@@ -849,5 +943,72 @@ mod tests {
         let mut sigma = DMatrix::zeros(2, 3);
         sigma.set_partial_diagonal(s.into_iter());
         assert!((u * sigma * v.transpose() - &wide).amax() < 1e-14);
+    }
+
+    /// Full rank on a subset of rows, tested against the rank of all rows:
+    /// shown for a well-conditioned matrix; never shown when only rows
+    /// outside the subset reach a column, or when those rows are so much
+    /// larger that the whole matrix is ill-conditioned at the tolerance
+    /// although the subset is not.
+    #[test]
+    fn a_subset_of_rows_shows_full_rank_only_where_all_rows_have_it() {
+        let relative_smallest = |m: &DMatrix<f64>| {
+            let s = singular_values(m).unwrap();
+            s[s.len() - 1] / s[0]
+        };
+        let shown = |m: &DMatrix<f64>, tolerance: f64| {
+            let subset = strided_rows(m.nrows(), m.ncols()).unwrap();
+            full_rank_on_rows(
+                subset.len(),
+                m.ncols(),
+                m.norm_squared(),
+                tolerance,
+                |first, mut block| {
+                    for i in 0..block.nrows() {
+                        block.row_mut(i).copy_from(&m.row(subset[first + i]));
+                    }
+                },
+            )
+        };
+        let m = pseudo_random(400, 5, 7);
+        assert!(relative_smallest(&m) > 1e-2);
+        assert!(shown(&m, 1e-8));
+        // Scaled to unit columns, the bound is the number of columns; an
+        // entry that is not finite makes it not finite, and nothing shown.
+        let (scales, frobenius_squared) = column_scales(400, 5, |i, j| m[(i, j)]);
+        assert!((frobenius_squared - 5.0).abs() < 1e-12);
+        assert!(scales.iter().all(|&d| d > 1.0));
+        let mut broken = m.clone();
+        broken[(399, 2)] = f64::INFINITY;
+        let (_, frobenius_squared) = column_scales(400, 5, |i, j| broken[(i, j)]);
+        assert!(!frobenius_squared.is_finite());
+        let subset = strided_rows(400, 5).unwrap();
+        assert!(!full_rank_on_rows(
+            subset.len(),
+            5,
+            frobenius_squared,
+            1e-8,
+            row_by_row(|i, row| row.copy_from_slice(m.row(subset[i]).transpose().as_slice()))
+        ));
+        // Too few rows for a subset to save work.
+        assert_eq!(strided_rows(39, 5), None);
+
+        let subset = strided_rows(400, 2).unwrap();
+        let mut outside = DMatrix::from_fn(400, 2, |_, j| if j == 0 { 1.0 } else { 0.0 });
+        let mut huge = DMatrix::from_fn(400, 2, |_, j| if j == 0 { 1e5 } else { 0.0 });
+        for (n, &i) in subset.iter().enumerate() {
+            huge[(i, 0)] = f64::from(u8::from(n % 2 == 0));
+            huge[(i, 1)] = f64::from(u8::from(n % 2 == 1));
+        }
+        for i in (0..400).filter(|i| subset.binary_search(i).is_err()) {
+            outside[(i, 1)] = 1.0 + (i % 7) as f64;
+        }
+        assert!(relative_smallest(&outside) > 1e-3);
+        assert!(!shown(&outside, 1e-8));
+        assert!(relative_smallest(&huge) < 1e-3);
+        assert!(!shown(&huge, 1e-3));
+        // The subset alone is well-conditioned: only the bound on the
+        // rows outside it keeps this from being shown.
+        assert!(shown(&huge, 1e-7));
     }
 }
