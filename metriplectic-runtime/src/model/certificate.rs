@@ -125,7 +125,9 @@ fn check_everywhere<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<
                     reason,
                 },
             ));
-        } else if let Some(error) = vertex_witness::<S>(what, theta, &block, scale) {
+        } else if let Some(error) = vertex_witness::<S>(what, theta, &block, scale)
+            .or_else(|| ray_witness::<S>(what, theta, &block, scale))
+        {
             // The certificate's tolerance allows K(x) ⪰ −s‖Z(x)‖²I, which
             // far out can exceed K itself: a state where it does is refused.
             return Err(error);
@@ -621,6 +623,109 @@ fn vertex_witness<S: MetriplecticSystem>(
     None
 }
 
+/// Random directions `ray_witness` probes besides the axes and diagonals.
+const RAY_DIRECTIONS: usize = 32;
+
+/// A state where the block's smallest eigenvalue is below −1e-9 times
+/// both the block's coefficient scale times ‖Z(x)‖² (Z the monomials of
+/// half the metric's degree; the unit in which the certificate bounds the
+/// shift) and the largest entry's Σ|c_α x^α| (its rounding), probed along
+/// rays: ±e_v, ±(1, …, 1) and `RAY_DIRECTIONS` seeded random directions, at
+/// radii from ½, a factor √10 apart (the band where such a violation shows
+/// can be narrower than a decade), up to |x|^degree = 1e200.
+///
+/// A certified shift of s allows Gram entries off by √s: with s at its
+/// tolerance of 1e-8, K = [[1 + q², 1.0001 q], [1.0001 q, 1]] passed
+/// (shift 1e-8, Gram entry 1e-4 off) although it is indefinite for
+/// |q| > 71, along (1, −q), which no fixed u of [`vertex_witness`] follows,
+/// and a free energy could fall there. The smallest eigenvalue of the whole
+/// block does follow it. Coefficients below 1e-12 of `scale` are left out,
+/// as [`vertex_witness`] leaves them: they are the searches' rounding. A
+/// fit's own residual (1e-12 of the scale, times ‖Z‖²) is a thousand times
+/// below the threshold, so no searched metric is refused for it.
+fn ray_witness<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    block: &[usize],
+    scale: f64,
+) -> Option<Error> {
+    let n = S::DIM;
+    let exponents = S::METRIC_EXPONENTS;
+    let degree = exponents
+        .iter()
+        .map(|e| e.iter().sum::<u32>())
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    // The block's coefficients above rounding, and their magnitudes.
+    let m = exponents.len();
+    let mut cleaned = vec![0.0; theta.len()];
+    for (_, _, j, k) in block_pairs(block) {
+        let pair = metric_pair_index(n, j, k);
+        for alpha in 0..m {
+            let c = theta[pair * m + alpha];
+            if c.abs() > 1e-12 * scale {
+                cleaned[pair * m + alpha] = c;
+            }
+        }
+    }
+    let magnitudes: Vec<f64> = cleaned.iter().map(|c| c.abs()).collect();
+    let half: Vec<&[u32]> = exponents
+        .iter()
+        .copied()
+        .filter(|e| 2 * e.iter().sum::<u32>() <= degree)
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(0x4a75);
+    let mut directions: Vec<Vec<f64>> = Vec::new();
+    for v in 0..n {
+        for sign in [1.0, -1.0] {
+            directions.push(embed(n, &[v], &[sign]));
+        }
+    }
+    directions.push(vec![1.0; n]);
+    directions.push(vec![-1.0; n]);
+    for _ in 0..RAY_DIRECTIONS {
+        directions.push((0..n).map(|_| rng.random_range(-1.0..1.0)).collect());
+    }
+    let largest_radius = 10_f64.powf(WITNESS_MAGNITUDE_EXPONENT / f64::from(degree));
+    let (mut metric, mut sizes) = (vec![0.0; n * n], vec![0.0; n * n]);
+    for direction in &directions {
+        let length = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
+        if length == 0.0 {
+            continue;
+        }
+        let mut radius = 0.5;
+        while radius <= largest_radius {
+            let x: Vec<f64> = direction.iter().map(|d| d / length * radius).collect();
+            let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+            S::metric_value(&x, &cleaned, &mut metric);
+            S::metric_value(&magnitude, &magnitudes, &mut sizes);
+            let rounding = block
+                .iter()
+                .flat_map(|&j| block.iter().map(move |&k| (j, k)))
+                .map(|(j, k)| sizes[j * n + k])
+                .fold(0.0_f64, f64::max);
+            let gram_unit = scale
+                * half
+                    .iter()
+                    .map(|e| monomial_scale(&magnitude, e).powi(2))
+                    .sum::<f64>();
+            let (eigenvalue, local) = smallest_eigen(block_matrix(&metric, n, block));
+            let threshold = 1e-9 * rounding.max(gram_unit);
+            if eigenvalue.is_finite() && threshold.is_finite() && eigenvalue < -threshold {
+                return Some(Error::MetricNotPositive {
+                    what: what.to_owned(),
+                    eigenvalue,
+                    direction: embed(n, block, &local),
+                    state: Some(x),
+                });
+            }
+            radius *= 10_f64.sqrt();
+        }
+    }
+    None
+}
+
 /// Checks that K(x) ⪰ 0 on the region of `certificate` by finding Gram
 /// matrices of its lower blocks (the S-procedure), or says where it fails.
 fn check_on_region<S: MetriplecticSystem>(
@@ -894,6 +999,31 @@ mod tests {
         // [[q², 0], [0, 0]]: PSD on a face (no strictly feasible Gram matrix).
         let t = theta(&[(3, 1.0)]);
         check_metric::<Quadratic2d>("test", &t).unwrap();
+    }
+
+    /// Within the certificate's shift tolerance (the shift is the square
+    /// of the Gram entry's error) but indefinite for |q| > 71: refused by
+    /// the smallest eigenvalue along a ray; the same metric at the edge of
+    /// the cone (K01 = q, det K = 1) is certified.
+    #[test]
+    fn a_metric_the_shift_tolerance_passes_is_refused_where_it_is_indefinite() {
+        let metric = |k01: f64| theta(&[(0, 1.0), (3, 1.0), (6 + 1, k01), (12, 1.0)]);
+        check_metric::<Quadratic2d>("m", &metric(1.0)).unwrap();
+        for k01 in [1.0001, 1.001] {
+            match check_metric::<Quadratic2d>("m", &metric(k01)) {
+                Err(Error::MetricNotPositive {
+                    eigenvalue,
+                    state: Some(x),
+                    ..
+                }) => {
+                    assert!(
+                        eigenvalue < 0.0 && x[0].abs() > 70.0,
+                        "{eigenvalue} at {x:?}"
+                    );
+                }
+                other => panic!("K01 = {k01} q: {other:?}"),
+            }
+        }
     }
 
     #[test]
