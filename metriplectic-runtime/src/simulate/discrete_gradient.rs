@@ -115,7 +115,7 @@
 use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
 
 use super::dopri::{interval_offsets, IntegrationStats, OutputTimes};
-use crate::error::{invalid, Result, SimulationError};
+use crate::error::{invalid, Num, Result, SimulationError};
 use crate::model::Model;
 use crate::system::{CertificateMode, MetriplecticSystem};
 
@@ -232,11 +232,20 @@ fn integrate_with<S: MetriplecticSystem>(
         previous = tau;
     }
     if total_steps > u64::from(max_steps) {
+        // A count past u64 (a step of 1e-300) is told by its size.
+        let needed = if total_steps == u64::MAX {
+            format!("about {:.1e}", span.abs() / step)
+        } else {
+            total_steps.to_string()
+        };
         return Err(invalid(
             "discrete-gradient step",
             format!(
-                "{step} over [{t0}, {t_end}] needs {total_steps} steps, more than \
-                 `integrator.max_steps` = {max_steps} (raise it or take a larger step)"
+                "{} over [{}, {}] needs {needed} steps, more than \
+                 `integrator.max_steps` = {max_steps} (raise it or take a larger step)",
+                Num(step),
+                Num(t0),
+                Num(t_end)
             ),
         ));
     }
@@ -1370,7 +1379,13 @@ mod tests {
         // A step so small that the count saturates is the same error.
         let tiny = options(1e-300, OutputTimes::Interval(0.25));
         let err = simulate(&model, &[1.0, 0.0], 0.0, 1.0, &tiny).unwrap_err();
-        assert!(err.to_string().contains("more than"), "{err}");
+        let text = err.to_string();
+        assert!(text.contains("more than"), "{err}");
+        // Told in the messages' number format, and by its size.
+        assert!(
+            text.contains("1e-300 over") && text.contains("about 1.0e300 steps"),
+            "{err}"
+        );
     }
 
     /// The fixed-point iteration contracts only while h·L < 2; beyond, the
