@@ -1009,6 +1009,9 @@ mod tests {
     fn a_metric_the_shift_tolerance_passes_is_refused_where_it_is_indefinite() {
         let metric = |k01: f64| theta(&[(0, 1.0), (3, 1.0), (6 + 1, k01), (12, 1.0)]);
         check_metric::<Quadratic2d>("m", &metric(1.0)).unwrap();
+        // Indefinite beyond |q| = 224, but never by more than 1e-9 of the
+        // certificate's unit there: within the tolerance.
+        check_metric::<Quadratic2d>("m", &metric(1.00001)).unwrap();
         for k01 in [1.0001, 1.001] {
             match check_metric::<Quadratic2d>("m", &metric(k01)) {
                 Err(Error::MetricNotPositive {
