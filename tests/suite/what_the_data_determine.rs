@@ -868,3 +868,51 @@ fn degree_selection_and_bootstrap_keep_their_refits_warnings() {
     );
     assert_eq!(result.first_failure, None);
 }
+
+metriplectic! {
+    /// An oscillator with a state-dependent metric, for data at rest.
+    pub struct OscillatorAtRest;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+    entropy degree 4;
+    metric degree 2;
+}
+
+/// States at rest everywhere (ẋ = 0 at 200 distinct states, found by a
+/// probe): S = −H fits them exactly, E is constant on the data, and K∇E = 0
+/// whatever K. The run converged with an arbitrary K and no warning, and the
+/// report called all 32 coefficients determined: the metric's columns,
+/// K(x; ·) times a ∇E of rounding size, read as unit columns once
+/// normalised. Now the metric is reported undetermined, in the run's
+/// warnings and in the report.
+#[test]
+fn states_at_rest_leave_the_metric_undetermined_and_say_so() {
+    let states: Vec<[f64; 2]> = (0..200)
+        .map(|i| {
+            let a = f64::from(i) * 0.7;
+            [a.sin(), (1.3 * a).cos()]
+        })
+        .collect();
+    let data = Dataset::from_rows(2, &states, &vec![[0.0, 0.0]; 200]).unwrap();
+    let fit = identify::<OscillatorAtRest>(&data, &IdentifyConfig::default()).unwrap();
+    let metric_unknowns = OscillatorAtRest::metric_coefficient_count();
+    assert!(
+        fit.warnings.iter().any(|w| matches!(
+            w,
+            IdentifyWarning::RankDeficient { rank: 0, coefficients, .. }
+                if *coefficients <= metric_unknowns
+        )),
+        "{:?}",
+        fit.warnings
+    );
+    let report = identifiability(&fit.model, &data, &IdentifiabilityOptions::default()).unwrap();
+    assert!(!report.is_identifiable(), "{report}");
+    // The three free metric coefficients, and nothing else: flat, or ruled
+    // out by K ⪰ 0 at the fit's (singular) K.
+    assert_eq!(
+        report.flat_directions.len() + report.excluded_by_positivity,
+        3,
+        "{report}"
+    );
+}

@@ -564,8 +564,19 @@ impl ScaledJacobian {
             free_psi,
         };
         let columns = entries.count();
-        let (scale, frobenius_squared) =
+        let (mut scale, frobenius_squared) =
             column_scales(entries.rows(), columns, |row, c| entries.entry(row, c));
+        // Where ∇E is only the fit's cancellation of H by S, the metric's
+        // columns K(x; ·)∇E are that cancellation's rounding: read at the
+        // size of ∇E against its parts, they are as flat as ∇E is. (The
+        // Frobenius sum only falls: it stays a bound.)
+        if let Some(variation) =
+            free_energy_variation::<S>(data, psi).filter(|&v| v > 0.0 && v < options.tolerance)
+        {
+            for d in &mut scale[..entries.free_theta.len()] {
+                *d /= variation;
+            }
+        }
         let (free_theta, free_psi) = (&entries.free_theta, &entries.free_psi);
 
         // Coordinates: the free coefficients, each divided by its column
@@ -948,6 +959,31 @@ pub(crate) fn hamiltonian_coefficients<S: MetriplecticSystem>(
 pub(crate) fn data_states(data: &impl IdentificationData) -> Vec<&[f64]> {
     let equations = data.equations();
     equations.states.chunks_exact(equations.dim).collect()
+}
+
+/// How much E = H + S varies on the data against its parts: the root mean
+/// square of ∇E over the data's states divided by that of ∇H plus that of
+/// ∇S; `None` when both parts vanish there. Near zero when S cancels H on
+/// the data (states at rest fitted by S = −H): ∇E is then the fit's
+/// rounding, and K∇E, all the data say of K, says nothing.
+pub(crate) fn free_energy_variation<S: MetriplecticSystem>(
+    data: &impl IdentificationData,
+    psi: &[f64],
+) -> Option<f64> {
+    let n = S::DIM;
+    let (mut grad_h, mut grad_s) = (vec![0.0; n], vec![0.0; n]);
+    let (mut energy, mut hamiltonian, mut entropy) = (0.0, 0.0, 0.0);
+    for x in data_states(data) {
+        S::hamiltonian_gradient(x, &mut grad_h);
+        S::entropy_gradient(x, psi, &mut grad_s);
+        for (h, s) in grad_h.iter().zip(&grad_s) {
+            energy += (h + s) * (h + s);
+            hamiltonian += h * h;
+            entropy += s * s;
+        }
+    }
+    let parts = hamiltonian.sqrt() + entropy.sqrt();
+    (parts > 0.0 && parts.is_finite()).then(|| energy.sqrt() / parts)
 }
 
 /// An orthonormal basis (columns) of the vectors of length `k` orthogonal

@@ -11,7 +11,9 @@ use super::search::{
     centred_entropy_regression, centred_metric_regression, entropy_regression, entropy_shift,
     metric_regression,
 };
-use crate::analysis::identifiability::{data_states, hamiltonian_coefficients};
+use crate::analysis::identifiability::{
+    data_states, free_energy_variation, hamiltonian_coefficients,
+};
 use crate::data::IdentificationData;
 use crate::error::Num;
 use crate::error::Result;
@@ -508,7 +510,15 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
         _ => metric_regression::<S>(data, psi)?,
     };
     let unknowns = free.len().saturating_sub(metric_rows.len());
-    if let Some(rank) = numerical_rank(&metric, &free, &metric_rows) {
+    // Where S cancels H on the data, K∇E is rounding whatever K: no metric
+    // direction is determined (the report's rule).
+    let cancelled = free_energy_variation::<S>(data, psi).is_some_and(|v| v < RANK_TOLERANCE);
+    let metric_rank = if cancelled {
+        Some(0)
+    } else {
+        numerical_rank(&metric, &free, &metric_rows)
+    };
+    if let Some(rank) = metric_rank {
         if rank < unknowns {
             warnings.push(IdentifyWarning::RankDeficient {
                 block: CoefficientBlock::Metric,
