@@ -490,6 +490,27 @@ fn witness<S: MetriplecticSystem>(
     })
 }
 
+/// The metric basis's largest total degree (at least 1).
+fn metric_degree<S: MetriplecticSystem>() -> u32 {
+    S::METRIC_EXPONENTS
+        .iter()
+        .map(|e| e.iter().sum::<u32>())
+        .max()
+        .unwrap_or(0)
+        .max(1)
+}
+
+/// ±e_v for every state variable, then ±(1, …, 1): the directions every
+/// witness search tries before its random ones.
+fn axes_and_diagonals(n: usize) -> Vec<Vec<f64>> {
+    let mut directions: Vec<Vec<f64>> = (0..n)
+        .flat_map(|v| [1.0, -1.0].map(|sign| embed(n, &[v], &[sign])))
+        .collect();
+    directions.push(vec![1.0; n]);
+    directions.push(vec![-1.0; n]);
+    directions
+}
+
 /// Largest state component `vertex_witness` tries: the metric's monomials
 /// stay within f64 (|x|^degree ≤ 1e200) and far from any data.
 const WITNESS_MAGNITUDE_EXPONENT: f64 = 200.0;
@@ -514,24 +535,12 @@ fn vertex_witness<S: MetriplecticSystem>(
 ) -> Option<Error> {
     let n = S::DIM;
     let exponents = S::METRIC_EXPONENTS;
-    let degree = exponents
-        .iter()
-        .map(|e| e.iter().sum::<u32>())
-        .max()
-        .unwrap_or(0)
-        .max(1);
+    let degree = metric_degree::<S>();
     let largest_log = WITNESS_MAGNITUDE_EXPONENT / f64::from(degree) * std::f64::consts::LN_10;
     // Generic linear forms: a small seeded perturbation makes each
     // maximiser unique.
     let mut rng = ChaCha8Rng::seed_from_u64(0x7e47);
-    let mut forms: Vec<Vec<f64>> = Vec::new();
-    for v in 0..n {
-        for sign in [1.0, -1.0] {
-            forms.push((0..n).map(|i| if i == v { sign } else { 0.0 }).collect());
-        }
-    }
-    forms.push(vec![1.0; n]);
-    forms.push(vec![-1.0; n]);
+    let mut forms = axes_and_diagonals(n);
     for _ in 0..4 {
         forms.push((0..n).map(|_| rng.random_range(-1.0..1.0)).collect());
     }
@@ -651,12 +660,7 @@ fn ray_witness<S: MetriplecticSystem>(
 ) -> Option<Error> {
     let n = S::DIM;
     let exponents = S::METRIC_EXPONENTS;
-    let degree = exponents
-        .iter()
-        .map(|e| e.iter().sum::<u32>())
-        .max()
-        .unwrap_or(0)
-        .max(1);
+    let degree = metric_degree::<S>();
     // The block's coefficients above rounding, and their magnitudes.
     let m = exponents.len();
     let mut cleaned = vec![0.0; theta.len()];
@@ -676,14 +680,7 @@ fn ray_witness<S: MetriplecticSystem>(
         .filter(|e| 2 * e.iter().sum::<u32>() <= degree)
         .collect();
     let mut rng = ChaCha8Rng::seed_from_u64(0x4a75);
-    let mut directions: Vec<Vec<f64>> = Vec::new();
-    for v in 0..n {
-        for sign in [1.0, -1.0] {
-            directions.push(embed(n, &[v], &[sign]));
-        }
-    }
-    directions.push(vec![1.0; n]);
-    directions.push(vec![-1.0; n]);
+    let mut directions = axes_and_diagonals(n);
     for _ in 0..RAY_DIRECTIONS {
         directions.push((0..n).map(|_| rng.random_range(-1.0..1.0)).collect());
     }
