@@ -686,6 +686,7 @@ fn ray_witness<S: MetriplecticSystem>(
     }
     let largest_radius = 10_f64.powf(WITNESS_MAGNITUDE_EXPONENT / f64::from(degree));
     let (mut metric, mut sizes) = (vec![0.0; n * n], vec![0.0; n * n]);
+    let mut shifted = vec![0.0; block.len() * block.len()];
     for direction in &directions {
         let length = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
         if length == 0.0 {
@@ -707,9 +708,23 @@ fn ray_witness<S: MetriplecticSystem>(
                     .iter()
                     .map(|e| monomial_scale(&magnitude, e).powi(2))
                     .sum::<f64>();
-            let (eigenvalue, local) = smallest_eigen(block_matrix(&metric, n, block));
             let threshold = 1e-9 * rounding.max(gram_unit);
-            if eigenvalue.is_finite() && threshold.is_finite() && eigenvalue < -threshold {
+            radius *= 10_f64.sqrt();
+            // A Cholesky factor of K + threshold·I rules the state out
+            // cheaply (thousands of states per block); only where it fails
+            // is the eigenvalue computed.
+            let m = block.len();
+            for (a, &j) in block.iter().enumerate() {
+                for (b, &k) in block.iter().enumerate() {
+                    shifted[a * m + b] = metric[j * n + k];
+                }
+                shifted[a * m + a] += threshold;
+            }
+            if !threshold.is_finite() || has_cholesky_factor(&mut shifted[..m * m], m) {
+                continue;
+            }
+            let (eigenvalue, local) = smallest_eigen(block_matrix(&metric, n, block));
+            if eigenvalue.is_finite() && eigenvalue < -threshold {
                 return Some(Error::MetricNotPositive {
                     what: what.to_owned(),
                     eigenvalue,
@@ -717,10 +732,29 @@ fn ray_witness<S: MetriplecticSystem>(
                     state: Some(x),
                 });
             }
-            radius *= 10_f64.sqrt();
         }
     }
     None
+}
+
+/// Whether the symmetric m × m matrix `a` (row-major) has a Cholesky
+/// factor, i.e. is positive definite to rounding; overwrites its lower
+/// triangle with the factor as far as it gets.
+fn has_cholesky_factor(a: &mut [f64], m: usize) -> bool {
+    for i in 0..m {
+        for j in 0..=i {
+            let sum = a[i * m + j] - (0..j).map(|k| a[i * m + k] * a[j * m + k]).sum::<f64>();
+            if i == j {
+                if sum.is_nan() || sum <= 0.0 {
+                    return false;
+                }
+                a[i * m + i] = sum.sqrt();
+            } else {
+                a[i * m + j] = sum / a[j * m + j];
+            }
+        }
+    }
+    true
 }
 
 /// Checks that K(x) ⪰ 0 on the region of `certificate` by finding Gram
