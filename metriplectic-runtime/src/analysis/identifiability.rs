@@ -268,9 +268,13 @@ fn abbreviate(text: &str, limit: usize) -> std::borrow::Cow<'_, str> {
 /// undetermined when its relative singular value is at most the options'
 /// tolerance or the fit's [`misfit`](Identifiability::misfit), whichever is
 /// larger: on noisy data the report is of what the data determine beyond
-/// their noise, not of the model's exact symmetries alone. Errors on a dataset of
-/// the wrong dimension, a support or gauge that does not fit `S`, or a
-/// failed singular value decomposition.
+/// their noise, not of the model's exact symmetries alone. Where E = H + S
+/// is constant on the data to the tolerance (‖∇E‖ below it times
+/// ‖∇H‖ + ‖∇S‖, as when S = −H fits states at rest), the metric's columns,
+/// K(x; ·)∇E, are rounding: they are read at that size, and the metric is
+/// reported undetermined. Errors on a dataset of the wrong dimension, a
+/// support or gauge that does not fit `S`, or a failed singular value
+/// decomposition.
 pub fn identifiability<S: MetriplecticSystem>(
     model: &Model<S>,
     data: &impl IdentificationData,
