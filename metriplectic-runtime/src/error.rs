@@ -370,7 +370,7 @@ pub enum CsvError {
         column: usize,
     },
     /// Time did not strictly increase within a trajectory.
-    #[error("line {line}, column {column} (`t`): time {time} does not come after {previous} on line {previous_line}{}: times must strictly increase within a trajectory{}", trajectory.as_ref().map(|t| format!(" in trajectory `{t}`")).unwrap_or_default(), if trajectory.is_none() { " (a file of several trajectories needs a `trajectory` column)" } else { "" })]
+    #[error("line {line}, column {column} (`t`): time {} does not come after {} on line {previous_line}{}{}: times must strictly increase within a trajectory{}", Num(*time), Num(*previous), if time == previous { " (the same number once read as a 64-bit float)" } else { "" }, trajectory.as_ref().map(|t| format!(" in trajectory `{t}`")).unwrap_or_default(), if trajectory.is_none() { " (a file of several trajectories needs a `trajectory` column)" } else { "" })]
     NonIncreasingTime {
         /// Line number.
         line: u64,

@@ -256,7 +256,16 @@ fn cell_errors_name_line_and_column() {
     ));
     assert_eq!(
         msg,
-        "line 4, column 1 (`t`): time 0.5 does not come after 0.5 on line 3: times must strictly increase within a trajectory (a file of several trajectories needs a `trajectory` column)"
+        "line 4, column 1 (`t`): time 0.5 does not come after 0.5 on line 3 (the same number once read as a 64-bit float): times must strictly increase within a trajectory (a file of several trajectories needs a `trajectory` column)"
+    );
+    // Times that differ in the file but not once read as floats.
+    let (_, msg) = csv_error("t,q,p\n10000000000000000,1,2\n10000000000000001,1,2\n");
+    assert!(
+        msg.contains(
+            "line 3, column 1 (`t`): time 1e16 does not come after 1e16 on line 2 (the same \
+             number once read as a 64-bit float)"
+        ),
+        "{msg}"
     );
     let (_, msg) = csv_error("q,trajectory,p,t\n1,r1,2,0\n1,r1,2,1\n1,r1,2,0.5\n");
     assert_eq!(
