@@ -307,6 +307,24 @@ mod tests {
         assert!(missing.iter().all(|m| m.starts_with("`S` has no")));
     }
 
+    /// `state (q p)` names the missing comma, not the names (both valid).
+    #[test]
+    fn a_missing_comma_between_state_names_is_named() {
+        let all = messages(quote! {
+            struct S;
+            state (q p);
+            poisson = [[0, 1], [-1, 0]];
+            hamiltonian = q^2;
+            entropy degree 2;
+            metric degree 0;
+        });
+        assert_eq!(all.len(), 1, "{all:#?}");
+        assert!(
+            all[0].starts_with("expected `,` before `p`: state variables are separated by commas"),
+            "{all:#?}"
+        );
+    }
+
     #[test]
     fn reserved_state_names() {
         let all = messages(quote! {

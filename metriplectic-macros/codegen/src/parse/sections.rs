@@ -404,6 +404,22 @@ fn state_section(
                     "expected a state variable name before this",
                 ));
             }
+            // `state (q p)`: names without the comma between them.
+            [_, second, ..]
+                if piece
+                    .tokens
+                    .iter()
+                    .all(|t| matches!(t, TokenTree::Ident(name) if is_identifier(name))) =>
+            {
+                valid = false;
+                diagnostics.push(syn::Error::new(
+                    second.span(),
+                    format!(
+                        "expected `,` before `{second}`: state variables are separated by \
+                         commas, {example}"
+                    ),
+                ));
+            }
             [first, ..] => {
                 valid = false;
                 let last = piece.tokens.last().map_or(first.span(), TokenTree::span);
