@@ -503,6 +503,38 @@ fn the_region_check_does_not_depend_on_the_metric_scale() {
     }
 }
 
+/// Nor on the scales of its axes: an entry of 1e12 beside one of 1 leaves
+/// a direction negative at 0.96·|∇E|², 1e-12 of the largest coefficient
+/// (accepted before the axes were balanced), while the same scales with a
+/// positive semidefinite metric pass.
+#[test]
+fn the_region_check_does_not_depend_on_the_scales_of_the_axes() {
+    let entropy = vec![0.0; 5];
+    let basis = OnTheBoxOnly::METRIC_EXPONENTS.len();
+    // K = [[1e12 − q², c], [c, 1]]; θ's pairs (0,0), (0,1), (1,1).
+    let metric = |c: f64| {
+        let mut theta = vec![0.0; OnTheBoxOnly::metric_coefficient_count()];
+        theta[0] = 1e12;
+        theta[3] = -1.0;
+        theta[basis] = c;
+        theta[2 * basis] = 1.0;
+        theta
+    };
+    match Model::<OnTheBoxOnly>::new(entropy.clone(), metric(1.4e6)).unwrap_err() {
+        Error::MetricNotPositive {
+            eigenvalue,
+            state: Some(x),
+            ..
+        } => {
+            assert!(eigenvalue < -0.5, "{eigenvalue}");
+            assert!(x[0].abs() <= 0.5 && x[1].abs() <= 1.0, "{x:?}");
+        }
+        other => panic!("{other}"),
+    }
+    // Determinant 1e12 − q² − 0.998e12 > 0 on the box.
+    Model::<OnTheBoxOnly>::new(entropy, metric(0.999e6)).unwrap();
+}
+
 metriplectic! {
     /// [`OnTheBoxOnly`] with q in millimetres: K(q) = 1 − c·q² on
     /// |q| ≤ 500.

@@ -19,7 +19,7 @@
 //! from one the metric is. When no certificate is found, states are probed
 //! for a negative eigenvalue so that the error can name one.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -36,10 +36,13 @@ use crate::system::{metric_pair_index, CertificateMode, MetriplecticSystem, Regi
 /// state-dependent ones: rounding in a metric search's Gram matrix is ~1e-16
 /// of its scale.
 const EIGENVALUE_TOLERANCE: f64 = 1e-10;
-/// A constant block's smallest eigenvalue above −this times its largest
-/// entry is rounding whatever the direction (an eigensolve's own error is
-/// ~n·ε of the largest entry).
-const ROUNDING_TOLERANCE: f64 = 1e-12;
+/// A constant block's smallest eigenvalue above −this times its size
+/// times its largest entry is rounding whatever the direction: a
+/// backward-stable eigensolve's own error is a few n·ε of the largest
+/// entry. At 1e-12 (500 times that) [[1e12, 1.4e6], [1.4e6, 1]], whose
+/// eigenvalue −0.96 is all of the second axis's own scale, passed, and
+/// E fell at 0.96·|∇E|² along (1.4e-6, −1).
+const ROUNDING_TOLERANCE: f64 = 4.0 * f64::EPSILON;
 /// Relative tolerance of the certificate program's optimum |s| (the program
 /// itself runs at the far tighter `certificate_settings`).
 const CERTIFICATE_TOLERANCE: f64 = 1e-8;
@@ -115,25 +118,169 @@ fn outside_region_too(what: &str) -> String {
 /// K(x) ⪰ 0 for every x, block by block.
 fn check_everywhere<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<()> {
     for block in blocks::<S>(theta) {
-        let scale = block_scale::<S>(theta, &block);
         if is_constant::<S>(theta, &block) {
             check_constant_block::<S>(what, theta, &block)?;
-        } else if let Err(reason) = certify_block::<S>(theta, &block, scale) {
-            return Err(witness::<S>(what, theta, &block, scale).unwrap_or(
-                Error::MetricNotCertified {
-                    what: what.to_owned(),
-                    reason,
-                },
-            ));
-        } else if let Some(error) = vertex_witness::<S>(what, theta, &block, scale)
-            .or_else(|| ray_witness::<S>(what, theta, &block, scale))
-        {
-            // The certificate's tolerance allows K(x) ⪰ −s‖Z(x)‖²I, which
-            // far out can exceed K itself: a state where it does is refused.
-            return Err(error);
+        } else if let Some(balanced) = Balanced::of::<S>(theta, &block, false) {
+            check_state_dependent_block::<S>(what, &balanced.theta, &block)
+                .map_err(|error| balanced.restore::<S>(theta, &block, error))?;
+        } else {
+            check_state_dependent_block::<S>(what, theta, &block)?;
         }
     }
     Ok(())
+}
+
+/// K(x) ⪰ 0 for every x on one block whose entries are not all constant.
+fn check_state_dependent_block<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    block: &[usize],
+) -> Result<()> {
+    let scale = block_scale::<S>(theta, block);
+    if let Err(reason) = certify_block::<S>(theta, block, scale) {
+        return Err(
+            witness::<S>(what, theta, block, scale).unwrap_or(Error::MetricNotCertified {
+                what: what.to_owned(),
+                reason,
+            }),
+        );
+    }
+    // The certificate's tolerance allows K(x) ⪰ −s‖Z(x)‖²I, which far out
+    // can exceed K itself: a state where it does is refused.
+    match vertex_witness::<S>(what, theta, block, scale)
+        .or_else(|| ray_witness::<S>(what, theta, block, scale))
+    {
+        Some(error) => Err(error),
+        None => Ok(()),
+    }
+}
+
+/// Largest ratio of two diagonal entries' sizes within a block that its
+/// checks take as they are; beyond it the block is checked as
+/// [`Balanced`].
+const BALANCE_RATIO: f64 = 1e3;
+
+/// Size, relative to the block's largest diagonal entry, below which a
+/// diagonal entry counts as that size when balancing: a zero row coupled
+/// at the searches' rounding (1e-9 of the scale) stays acceptable, its
+/// eigenvalue −(1e-9)²/1e-6 = −1e-12 of the scale.
+const BALANCE_FLOOR: f64 = 1e-6;
+
+/// A metric with the state axes of one block rescaled, K̃(x) = D K(x) D
+/// with D constant, diagonal and positive, so that the block's diagonal
+/// entries have comparable sizes. K̃(x) ⪰ 0 exactly where K(x) ⪰ 0, but
+/// the checks' tolerances, relative to the largest coefficient, then
+/// apply to every axis alike: [[1e12 + q², 1.4e6], [1.4e6, 1]], negative
+/// along (1.4e-6, −1) at 0.96·|∇E|², passed within 1e-8 of 1e12.
+struct Balanced {
+    /// θ of K̃.
+    theta: Vec<f64>,
+    /// D's diagonal, one factor per state variable (1 outside the block).
+    factors: Vec<f64>,
+}
+
+impl Balanced {
+    /// The balanced metric of `block`, or `None` when its diagonal entries'
+    /// sizes are within [`BALANCE_RATIO`] of each other. An entry's size is
+    /// its largest coefficient in the coordinates its certificate uses:
+    /// centred on a region far from the origin, each monomial x^α weighted
+    /// by ρ^α (the region's half-widths; at least 1 where K ⪰ 0 is needed
+    /// everywhere, `on_region` false), so that 1 − 4·10⁶q² on |q| ≤ 5e-4
+    /// is as large as a constant 1.
+    fn of<S: MetriplecticSystem>(theta: &[f64], block: &[usize], on_region: bool) -> Option<Self> {
+        let (centre, rho) = region_coordinates::<S>();
+        let centred = centre
+            .and_then(|c| Shift::new(S::METRIC_EXPONENTS, c))
+            .map(|shift| shift.to_centred(theta));
+        let rho: Vec<f64> = match (&centred, on_region) {
+            (Some(_), true) => rho,
+            (Some(_), false) => rho.into_iter().map(|r| r.max(1.0)).collect(),
+            (None, true) => state_scale::<S>(),
+            (None, false) => state_scale::<S>().into_iter().map(|r| r.max(1.0)).collect(),
+        };
+        let weights: Vec<f64> = S::METRIC_EXPONENTS
+            .iter()
+            .map(|e| monomial_scale(&rho, e))
+            .collect();
+        let coefficients = centred.as_deref().unwrap_or(theta);
+        let size = |j: usize| {
+            entry::<S>(coefficients, j, j)
+                .iter()
+                .zip(&weights)
+                .fold(0.0_f64, |m, (c, w)| m.max((c * w).abs()))
+        };
+        let largest = block.iter().map(|&j| size(j)).fold(0.0_f64, f64::max);
+        if !(largest.is_normal() && largest.is_finite()) {
+            return None;
+        }
+        let floor = BALANCE_FLOOR * largest;
+        let sizes: Vec<f64> = block.iter().map(|&j| size(j).max(floor)).collect();
+        let smallest = sizes.iter().copied().fold(f64::INFINITY, f64::min);
+        if largest <= BALANCE_RATIO * smallest {
+            return None;
+        }
+        let mut factors = vec![1.0; S::DIM];
+        for (&j, size) in block.iter().zip(&sizes) {
+            factors[j] = (largest / size).sqrt();
+        }
+        if factors.iter().any(|f| !f.is_finite()) {
+            return None;
+        }
+        let mut balanced = theta.to_vec();
+        let m = S::METRIC_EXPONENTS.len();
+        for (_, _, j, k) in block_pairs(block) {
+            let pair = metric_pair_index(S::DIM, j, k);
+            balanced[pair * m..(pair + 1) * m]
+                .iter_mut()
+                .for_each(|c| *c *= factors[j] * factors[k]);
+        }
+        Some(Self {
+            theta: balanced,
+            factors,
+        })
+    }
+
+    /// An error found on K̃ in K's own terms: a witness K̃'s direction u
+    /// becomes D u, with K's Rayleigh quotient there, unless K's own
+    /// smallest eigenvalue at that state is lower.
+    fn restore<S: MetriplecticSystem>(
+        &self,
+        theta: &[f64],
+        block: &[usize],
+        error: Error,
+    ) -> Error {
+        let (what, direction, x) = match error {
+            Error::MetricNotPositive {
+                what,
+                direction,
+                state: Some(x),
+                ..
+            } => (what, direction, x),
+            other => return other,
+        };
+        let n = S::DIM;
+        let mut v: Vec<f64> = block
+            .iter()
+            .map(|&j| direction[j] * self.factors[j])
+            .collect();
+        let length = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+        v.iter_mut().for_each(|c| *c /= length);
+        let mut metric = vec![0.0; n * n];
+        S::metric_value(&x, theta, &mut metric);
+        let k = block_matrix(&metric, n, block);
+        let u = DVector::from_column_slice(&v);
+        let quotient = (&k * &u).dot(&u);
+        let (eigenvalue, local) = match smallest_eigen(k) {
+            (value, vector) if value <= quotient => (value, vector),
+            _ => (quotient, v),
+        };
+        Error::MetricNotPositive {
+            what,
+            eigenvalue,
+            direction: embed(n, block, &local),
+            state: Some(x),
+        }
+    }
 }
 
 /// The coefficients θ of entry (j, k).
@@ -242,7 +389,7 @@ fn embed(n: usize, block: &[usize], local: &[f64]) -> Vec<f64> {
 
 /// A constant block with a negative diagonal entry fails. Otherwise it
 /// passes when its smallest eigenvalue is at rounding level, above
-/// −[`ROUNDING_TOLERANCE`] times its largest entry, or when its
+/// −[`ROUNDING_TOLERANCE`] times its size times its largest entry, or when its
 /// Jacobi-scaled form D^-½ K D^-½ has no eigenvalue below
 /// −[`EIGENVALUE_TOLERANCE`], D_i = max(K_ii, 0) plus that tolerance times the
 /// largest entry. Beyond rounding the tolerance is then per direction: a
@@ -279,7 +426,7 @@ fn check_constant_block<S: MetriplecticSystem>(
         });
     }
     let (eigenvalue, _) = smallest_eigen(k0.clone());
-    if eigenvalue >= -ROUNDING_TOLERANCE * spread {
+    if eigenvalue >= -ROUNDING_TOLERANCE * size as f64 * spread {
         return Ok(());
     }
     let floor = EIGENVALUE_TOLERANCE * spread;
@@ -778,16 +925,26 @@ fn check_on_region<S: MetriplecticSystem>(
     }
     let layout = Layout::of::<S>(S::SOS_REDUCED);
     layout.check::<S>()?;
-    match certify_on_region::<S>(theta, &layout, scale) {
-        Ok(()) => Ok(()),
-        Err(reason) => Err(
-            region_witness::<S>(what, theta, certificate, scale).unwrap_or(
-                Error::MetricNotCertified {
-                    what: what.to_owned(),
-                    reason: format!("{reason}; K(x) ⪰ 0 is required on the region only"),
-                },
+    let states: Vec<usize> = (0..S::DIM).collect();
+    let check = |theta: &[f64]| {
+        let scale = theta.iter().fold(0.0_f64, |m, c| m.max(c.abs()));
+        match certify_on_region::<S>(theta, &layout, scale) {
+            Ok(()) => Ok(()),
+            Err(reason) => Err(
+                region_witness::<S>(what, theta, certificate, scale).unwrap_or(
+                    Error::MetricNotCertified {
+                        what: what.to_owned(),
+                        reason: format!("{reason}; K(x) ⪰ 0 is required on the region only"),
+                    },
+                ),
             ),
-        ),
+        }
+    };
+    match Balanced::of::<S>(theta, &states, true) {
+        Some(balanced) => {
+            check(&balanced.theta).map_err(|error| balanced.restore::<S>(theta, &states, error))
+        }
+        None => check(theta),
     }
 }
 
@@ -1111,5 +1268,40 @@ mod tests {
         // Coupling far beyond rounding into a zero row: eigenvalue −1e-6.
         let t = theta(&[(0, 1.0), (6, 1e-3)]);
         assert!(check_metric::<Quadratic2d>("test", &t).is_err());
+        // Axes of very different scales: eigenvalue −0.96 is 1e-12 and
+        // 1e-14 of the largest entry, but all of the second axis's scale.
+        for (large, coupling) in [(1e12, 1.4e6), (1e14, 1.4e7)] {
+            let t = theta(&[(0, large), (6, coupling), (12, 1.0)]);
+            let err = check_metric::<Quadratic2d>("test", &t).unwrap_err();
+            println!("{err}");
+            assert!(
+                matches!(err, Error::MetricNotPositive { eigenvalue, .. } if eigenvalue < -0.5),
+                "{large:e}: {err}"
+            );
+        }
+        // The same scales, singular and PSD: v vᵀ with v = (1e6, 1).
+        let t = theta(&[(0, 1e12), (6, 1e6), (12, 1.0)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
+    }
+
+    /// So is a state-dependent block's: its axes are balanced before the
+    /// checks, whose tolerances are relative to the largest coefficient.
+    #[test]
+    fn a_large_state_dependent_entry_does_not_hide_a_negative_direction() {
+        // [[1e12 + q², 1.4e6], [1.4e6, 1]]: eigenvalue −0.96 near q = 0.
+        let t = theta(&[(0, 1e12), (3, 1.0), (6, 1.4e6), (12, 1.0)]);
+        let err = check_metric::<Quadratic2d>("test", &t).unwrap_err();
+        println!("{err}");
+        assert!(
+            matches!(err, Error::MetricNotPositive { eigenvalue, state: Some(ref x), .. }
+                if eigenvalue < -0.5 && x[0].abs() < 1e3),
+            "{err}"
+        );
+        // [[1e12 + q², 1e6], [1e6, 1 + p²]]: determinant 1e12·p² + q² + q²p².
+        let t = theta(&[(0, 1e12), (3, 1.0), (6, 1e6), (12, 1.0), (17, 1.0)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
+        // A zero row coupled at the searches' rounding stays acceptable.
+        let t = theta(&[(0, 1.0), (3, 1.0), (6, 1e-9)]);
+        check_metric::<Quadratic2d>("test", &t).unwrap();
     }
 }
