@@ -34,10 +34,12 @@ pub struct IdentifyConfig {
     pub max_iterations: usize,
     /// Converged ([`StopReason::Converged`](crate::StopReason::Converged))
     /// when the mean absolute residual per component on the validation
-    /// samples (without validation: the iteration's batch) is at most
-    /// `tolerance` times their scale, their mean |ẋ| per component (1 if
-    /// every ẋ is zero). Relative, so that data in any units are judged
-    /// alike; in [0, 1). Default 1e-9.
+    /// samples (without validation: the iteration's batch, and then all
+    /// the samples batches are drawn from, since a small batch can be
+    /// fitted exactly by a wrong model) is at most `tolerance` times their
+    /// scale, their mean |ẋ| per component (1 if every ẋ is zero).
+    /// Relative, so that data in any units are judged alike; in [0, 1).
+    /// Default 1e-9.
     pub tolerance: f64,
     /// Stop when the run no longer improves
     /// ([`StopReason::Stagnated`](crate::StopReason::Stagnated)): noisy data

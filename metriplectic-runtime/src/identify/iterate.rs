@@ -131,13 +131,20 @@ where
         };
         record.validation_cost = split.validation.as_ref().and(score);
         // Converged when the model fits the scoring samples (or, without
-        // them, the batch) to the tolerance: a model fitted to one small
-        // batch has not converged.
+        // them, all the samples it may use) to the tolerance: a model fitted
+        // to one small batch has not converged. A batch with fewer equations
+        // than unknowns is fitted exactly by some wrong model, so a batch
+        // within the tolerance is confirmed on the pool.
         let converged = match (&split.validation, score) {
             (Some(validation), Some(score)) => {
                 score.per_component <= config.tolerance * data_scale(validation)
             }
-            _ => cost_now.per_component <= config.tolerance * data_scale(batch),
+            _ => {
+                cost_now.per_component <= config.tolerance * data_scale(batch)
+                    && (config.batch_size.is_none()
+                        || model_cost(&state.model, &split.pool)?.per_component
+                            <= config.tolerance * data_scale(&split.pool))
+            }
         };
         if let Some(score) = score {
             track_best(&mut state, score, config.stagnation.as_ref());
