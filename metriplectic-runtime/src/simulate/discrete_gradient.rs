@@ -165,6 +165,8 @@ struct Energy {
     rounding_h: f64,
     /// (p + r)·ε·Σ|ψₖφₖ|.
     rounding_s: f64,
+    /// |H| + Σ|ψₖφₖ|, the size of the terms E is summed from.
+    size: f64,
 }
 
 impl Energy {
@@ -267,6 +269,25 @@ fn integrate_with<S: MetriplecticSystem>(
     let mut x = x0.to_vec();
     let mut x_next = vec![0.0; n];
     let mut energy = stepper.energy(&x);
+    // The scheme is built on differences of E: where E's rounding unit is
+    // below the smallest normal f64, E keeps too few digits to resolve
+    // them, and the steps froze at x0 (states of 1e-160 in a quadratic E)
+    // while reporting a free energy that never decreased.
+    if energy.size * stepper.terms * f64::EPSILON < f64::MIN_POSITIVE
+        && field.iter().any(|&v| v != 0.0)
+    {
+        return Err(invalid(
+            "initial state",
+            format!(
+                "the terms of the free energy there add up to {}, below {:.1e}, where the \
+                 last digits of E fall among f64's subnormal numbers and the \
+                 discrete-gradient steps cannot resolve its change; rescale the state \
+                 variables so that the state is of moderate size, or use DOPRI5",
+                Num(energy.size),
+                f64::MIN_POSITIVE / (stepper.terms * f64::EPSILON)
+            ),
+        ));
+    }
     let mut guess = Guess::new(n);
     let mut times = Vec::new();
     let mut states = Vec::new();
@@ -570,6 +591,7 @@ impl<'a, S: MetriplecticSystem> Stepper<'a, S> {
             entropy,
             rounding_h: self.terms * f64::EPSILON * hamiltonian.abs(),
             rounding_s: self.terms * f64::EPSILON * magnitude,
+            size: hamiltonian.abs() + magnitude,
         }
     }
 
@@ -1353,6 +1375,23 @@ mod tests {
         // A shifted start: the same steps, the same states.
         let shifted = simulate(&model, &x0, -3.0, -2.0, &options(0.3, OutputTimes::Steps)).unwrap();
         assert_eq!(shifted.trajectory.states(), sim.trajectory.states());
+    }
+
+    /// A state whose free energy is subnormal is refused, not frozen: the
+    /// steps froze at x0 from states of 1e-160 and the run reported no
+    /// decrease of E. States of 1e-100 still scale exactly.
+    #[test]
+    fn states_too_small_for_the_free_energy_are_refused() {
+        let model = Model::<Decay>::reference().unwrap();
+        let reference = run(&model, &[0.3, 0.4], 1.0, 0.01);
+        let small = run(&model, &[0.3e-100, 0.4e-100], 1.0, 0.01);
+        for (a, b) in last_state(&reference).iter().zip(last_state(&small)) {
+            assert!((a - b * 1e100).abs() <= 1e-12 * a.abs().max(1e-3), "{a} {b}");
+        }
+        let options = options(0.01, OutputTimes::Steps);
+        let err = simulate(&model, &[0.3e-160, 0.4e-160], 0.0, 1.0, &options).unwrap_err();
+        println!("{err}");
+        assert!(err.to_string().contains("subnormal"), "{err}");
     }
 
     #[test]
