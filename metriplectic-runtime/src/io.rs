@@ -131,8 +131,14 @@ pub fn write_file(path: &Path, bytes: &[u8], mode: WriteMode) -> Result<()> {
         _ => (path, None),
     };
     let temporary = temporary_beside(path)?;
+    // A fresh file, never an existing one or a symbolic link's target: the
+    // name is only unlikely to be taken, and what is there is not ours.
+    let mut file = OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&temporary)
+        .map_err(io(path))?;
     let written = (|| {
-        let mut file = File::create(&temporary)?;
         file.write_all(bytes)?;
         if let Some(permissions) = existing {
             file.set_permissions(permissions)?;

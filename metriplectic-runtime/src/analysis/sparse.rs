@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::refit::{preferred, refit};
 use crate::data::IdentificationData;
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Num, Result};
 use crate::identify::search::entropy_regression;
 use crate::identify::{model_cost, Cost, IdentifyConfig, Support};
 use crate::model::Model;
@@ -86,13 +86,16 @@ pub fn sparsify<S: MetriplecticSystem, D: IdentificationData>(
     {
         return Err(invalid(
             "sparse threshold",
-            format!("{bad} is not in (0, 1)"),
+            format!("{} is not in (0, 1)", Num(*bad)),
         ));
     }
     if !(options.parsimony.is_finite() && options.parsimony >= 0.0) {
         return Err(invalid(
             "parsimony",
-            format!("{} is not a finite non-negative number", options.parsimony),
+            format!(
+                "{} is not a finite non-negative number",
+                Num(options.parsimony)
+            ),
         ));
     }
     // A dense model outside the support would be returned as the
