@@ -1386,7 +1386,10 @@ mod tests {
         let reference = run(&model, &[0.3, 0.4], 1.0, 0.01);
         let small = run(&model, &[0.3e-100, 0.4e-100], 1.0, 0.01);
         for (a, b) in last_state(&reference).iter().zip(last_state(&small)) {
-            assert!((a - b * 1e100).abs() <= 1e-12 * a.abs().max(1e-3), "{a} {b}");
+            assert!(
+                (a - b * 1e100).abs() <= 1e-12 * a.abs().max(1e-3),
+                "{a} {b}"
+            );
         }
         let options = options(0.01, OutputTimes::Steps);
         let err = simulate(&model, &[0.3e-160, 0.4e-160], 0.0, 1.0, &options).unwrap_err();

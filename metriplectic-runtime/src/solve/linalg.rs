@@ -10,13 +10,15 @@
 //!
 //! Results do not depend on the thread count: the products with the
 //! regression block ([`RowMajor`]) split their rows into fixed blocks and
-//! add the blocks' partial sums in a fixed order, and faer's matrix
-//! product and Cholesky split only the output, never a sum, across threads
+//! add the blocks' partial sums in a fixed order, faer's matrix product
+//! and Cholesky split only the output, never a sum, across threads, and
+//! its decompositions (QR, SVD, eigendecomposition), whose arithmetic
+//! follows the number of tasks they split into, are given a fixed one
 //! (checked bit for bit in the tests below and in `tests/suite/determinism.rs`).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::triangular::BlockStructure;
-use faer::{Accum, MatMut, MatRef, Par, Side};
+use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, DMatrixViewMut, DVector};
 use rayon::prelude::*;
 
@@ -504,7 +506,7 @@ fn householder_qr_in_place(m: &mut DMatrix<f64>) {
     use faer::linalg::qr::no_pivoting::factor;
     let (rows, n) = m.shape();
     let size = rows.min(n);
-    let par = parallelism(rows as f64 * (n * n) as f64);
+    let par = decomposition_parallelism(rows as f64 * (n * n) as f64);
     let block = factor::recommended_blocksize::<f64>(rows, n);
     let mut coefficients = faer::Mat::<f64>::zeros(block, size);
     let mut memory = MemBuffer::new(factor::qr_in_place_scratch::<f64>(
@@ -665,33 +667,130 @@ pub(crate) fn triangular_factor_by_blocks(
     r
 }
 
+/// Tasks faer's decompositions (QR, SVD, symmetric eigendecomposition)
+/// split their work into when they run in parallel, whatever the number
+/// of threads: their arithmetic follows the task count, so with the
+/// pool's thread count (`Par::rayon(0)`) a QR of 1700 × 400 rows differed
+/// in its last bits between one thread and two, and so did the joint
+/// step's results (a probe).
+const DECOMPOSITION_TASKS: usize = 4;
+
+/// The parallelism of a decomposition of `work` multiply-adds.
+fn decomposition_parallelism(work: f64) -> Par {
+    match parallelism(work) {
+        Par::Seq => Par::Seq,
+        _ => Par::rayon(DECOMPOSITION_TASKS),
+    }
+}
+
+/// Eigenvalues (ascending) of a symmetric matrix (its lower triangle is
+/// read) and, if asked, its eigenvectors; `None` on failure.
+fn faer_symmetric_eigen(
+    m: &DMatrix<f64>,
+    vectors: bool,
+) -> Option<(Vec<f64>, Option<faer::Mat<f64>>)> {
+    use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
+    let n = m.nrows();
+    let par = decomposition_parallelism((n * n * n) as f64);
+    let compute = if vectors {
+        ComputeEigenvectors::Yes
+    } else {
+        ComputeEigenvectors::No
+    };
+    let mut values = faer::diag::Diag::<f64>::zeros(n);
+    let mut u = vectors.then(|| faer::Mat::<f64>::zeros(n, n));
+    let mut memory = MemBuffer::new(self_adjoint_evd_scratch::<f64>(
+        n,
+        compute,
+        par,
+        Default::default(),
+    ));
+    self_adjoint_evd(
+        view(m),
+        values.as_mut(),
+        u.as_mut().map(|u| u.as_mut()),
+        par,
+        MemStack::new(&mut memory),
+        Default::default(),
+    )
+    .ok()?;
+    let values: Vec<f64> = (0..n).map(|i| values[i]).collect();
+    Some((values, u))
+}
+
+/// The singular values (descending) of an m × n matrix and, if asked, its
+/// singular vectors (thin or full); `None` on failure.
+fn faer_svd(
+    m: &DMatrix<f64>,
+    vectors: faer::linalg::svd::ComputeSvdVectors,
+) -> Option<(Vec<f64>, Option<(faer::Mat<f64>, faer::Mat<f64>)>)> {
+    use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
+    let (rows, columns) = m.shape();
+    let size = rows.min(columns);
+    let par = decomposition_parallelism(rows as f64 * columns as f64 * size as f64);
+    let (u_columns, v_columns) = match vectors {
+        ComputeSvdVectors::Full => (rows, columns),
+        _ => (size, size),
+    };
+    let mut values = faer::diag::Diag::<f64>::zeros(size);
+    let mut factors = (vectors != ComputeSvdVectors::No).then(|| {
+        (
+            faer::Mat::<f64>::zeros(rows, u_columns),
+            faer::Mat::<f64>::zeros(columns, v_columns),
+        )
+    });
+    let mut memory = MemBuffer::new(svd_scratch::<f64>(
+        rows,
+        columns,
+        vectors,
+        vectors,
+        par,
+        Default::default(),
+    ));
+    let (u, v) = match factors.as_mut() {
+        Some((u, v)) => (Some(u.as_mut()), Some(v.as_mut())),
+        None => (None, None),
+    };
+    svd(
+        view(m),
+        values.as_mut(),
+        u,
+        v,
+        par,
+        MemStack::new(&mut memory),
+        Default::default(),
+    )
+    .ok()?;
+    let values: Vec<f64> = (0..size).map(|i| values[i]).collect();
+    Some((values, factors))
+}
+
+/// A faer matrix as an nalgebra one.
+fn to_nalgebra(m: &faer::Mat<f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)])
+}
+
 /// Eigenvalues (ascending) and eigenvectors (columns) of a symmetric matrix;
 /// `None` if the eigensolver fails or returns non-finite values.
 pub(crate) fn symmetric_eigen(m: &DMatrix<f64>) -> Option<(Vec<f64>, DMatrix<f64>)> {
-    let n = m.nrows();
-    let eigen = view(m).self_adjoint_eigen(Side::Lower).ok()?;
-    let values: Vec<f64> = (0..n).map(|i| eigen.S()[i]).collect();
-    let u = eigen.U();
-    let vectors = DMatrix::from_fn(n, n, |i, j| u[(i, j)]);
+    let (values, u) = faer_symmetric_eigen(m, true)?;
+    let vectors = to_nalgebra(&u?);
     (values.iter().all(|v| v.is_finite()) && vectors.iter().all(|v| v.is_finite()))
         .then_some((values, vectors))
 }
 
 /// The eigenvalues (ascending) of a symmetric matrix; `None` on failure.
 pub(crate) fn symmetric_eigenvalues(m: &DMatrix<f64>) -> Option<Vec<f64>> {
-    let values = view(m).self_adjoint_eigenvalues(Side::Lower).ok()?;
+    let (values, _) = faer_symmetric_eigen(m, false)?;
     values.iter().all(|v| v.is_finite()).then_some(values)
 }
 
 /// The full SVD of an m × n matrix: U (m × m), the min(m, n) singular
 /// values (descending) and V (n × n); `None` on failure.
 pub(crate) fn svd(m: &DMatrix<f64>) -> Option<(DMatrix<f64>, Vec<f64>, DMatrix<f64>)> {
-    let (rows, columns) = m.shape();
-    let svd = view(m).svd().ok()?;
-    let (u, s, v) = (svd.U(), svd.S(), svd.V());
-    let values: Vec<f64> = (0..rows.min(columns)).map(|i| s[i]).collect();
-    let u = DMatrix::from_fn(rows, rows, |i, j| u[(i, j)]);
-    let v = DMatrix::from_fn(columns, columns, |i, j| v[(i, j)]);
+    let (values, factors) = faer_svd(m, faer::linalg::svd::ComputeSvdVectors::Full)?;
+    let (u, v) = factors?;
+    let (u, v) = (to_nalgebra(&u), to_nalgebra(&v));
     let finite = values
         .iter()
         .chain(u.iter())
@@ -709,8 +808,8 @@ pub(crate) fn least_squares(
     relative: f64,
 ) -> Option<DVector<f64>> {
     let (rows, columns) = a.shape();
-    let svd = view(a).thin_svd().ok()?;
-    let (u, s, v) = (svd.U(), svd.S(), svd.V());
+    let (s, factors) = faer_svd(a, faer::linalg::svd::ComputeSvdVectors::Thin)?;
+    let (u, v) = factors?;
     let rank = rows.min(columns);
     let largest = if rank > 0 { s[0] } else { 0.0 };
     let mut x = DVector::<f64>::zeros(columns);
@@ -725,7 +824,7 @@ pub(crate) fn least_squares(
 
 /// The singular values (descending) of any matrix; `None` on failure.
 pub(crate) fn singular_values(m: &DMatrix<f64>) -> Option<Vec<f64>> {
-    view(m).singular_values().ok()
+    faer_svd(m, faer::linalg::svd::ComputeSvdVectors::No).map(|(values, _)| values)
 }
 
 #[cfg(test)]
@@ -910,6 +1009,47 @@ mod tests {
             .unwrap()
             .install(|| row_major_products(&a, &v, &w, &d));
         assert_eq!(one, products);
+    }
+
+    /// faer's kernels give the same bits on one thread as on the global
+    /// pool: the Gram product, the congruence, the Cholesky factor and its
+    /// solve, the factor from rows, the symmetric eigendecomposition and
+    /// the SVD, at sizes where each runs in parallel.
+    #[test]
+    fn dense_kernels_match_the_thread_count() {
+        let m = pseudo_random(1700, 400, 8);
+        let z = pseudo_random(400, 300, 9);
+        let b = DVector::from_column_slice(pseudo_random(400, 1, 10).as_slice());
+        let kernels = || {
+            let g = gram(&m);
+            let c = congruence(&g, &z);
+            let factor = Cholesky::new(&g).unwrap();
+            let x = factor.solve(&b);
+            let l = factor.l().clone();
+            let r = Cholesky::from_rows(m.nrows(), m.ncols(), |i, row| {
+                for (j, value) in row.iter_mut().enumerate() {
+                    *value = m[(i, j)];
+                }
+            })
+            .unwrap()
+            .l;
+            let eigen = symmetric_eigen(&c).unwrap();
+            let singular = svd(&z).unwrap();
+            (g, c, l, x, r, eigen, singular)
+        };
+        let all = kernels();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(kernels);
+        assert!(all.0 == one.0, "Gram product");
+        assert!(all.1 == one.1, "congruence");
+        assert!(all.2 == one.2, "Cholesky factor");
+        assert!(all.3 == one.3, "Cholesky solve");
+        assert!(all.4 == one.4, "factor from rows (blocked QR)");
+        assert!(all.5 == one.5, "symmetric eigendecomposition");
+        assert!(all.6 == one.6, "singular value decomposition");
     }
 
     #[test]
