@@ -71,6 +71,8 @@ pub struct Summary {
     /// The combinations the data cannot determine (descriptions): the
     /// scale (K, S) ↦ (cK, S/c) alone.
     pub unidentifiable_directions: Vec<String>,
+    /// The identification's warnings, as printed.
+    pub warnings: Vec<String>,
     /// Discrete-gradient steps simulated (all trajectories).
     pub steps: usize,
     /// max |H(x_k) − H(x_0)| / |H(x_0)| along the discrete-gradient
@@ -102,6 +104,17 @@ pub fn run(options: &Options) -> Result<Summary> {
             ),
         });
     }
+    for (option, count) in [
+        ("--train-samples", options.train_samples),
+        ("--heldout-samples", options.heldout_samples),
+    ] {
+        if count == 0 {
+            return Err(Error::InvalidArgument {
+                what: option.into(),
+                reason: "0 samples: at least one is needed".into(),
+            });
+        }
+    }
     let mut report = String::new();
     let truth = Model::<ClassicalRigidBody>::reference()?;
     let train = classical_rigid_body_data(options.train_samples, options.seed);
@@ -121,6 +134,10 @@ pub fn run(options: &Options) -> Result<Summary> {
         fit.history.iterations.len(),
         fit.stop_reason
     );
+    let warnings: Vec<String> = fit.warnings.iter().map(ToString::to_string).collect();
+    for warning in &warnings {
+        let _ = writeln!(report, "warning: {warning}");
+    }
     let _ = writeln!(report, "{}", determined.to_string().trim_end());
     let _ = writeln!(report, "{model}");
 
@@ -162,6 +179,7 @@ pub fn run(options: &Options) -> Result<Summary> {
             .iter()
             .map(|d| d.description.clone())
             .collect(),
+        warnings,
         steps,
         max_energy_drift: drift(&dg),
         entropy_decrease_fraction: decreases as f64 / steps.max(1) as f64,
