@@ -203,9 +203,32 @@ fn the_classical_example_conserves_h_and_never_lets_s_fall() {
     // DOPRI5 conserves H only to its tolerance: the contrast is real.
     assert!(summary.max_energy_drift_dopri5 > 100.0 * summary.max_energy_drift.max(1e-16));
     assert_eq!(summary.unidentifiable_directions.len(), 1);
+    // The run's warnings reach the summary (they were dropped): here the
+    // scale the classical form never determines.
+    assert!(
+        summary.warnings.iter().any(|w| w.contains("(cK, S/c)")),
+        "{:?}",
+        summary.warnings
+    );
     let written: metriplectic::classical::Summary =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(written, summary);
+    // No samples is an error that names the option (it panicked).
+    for (train, held_out, option) in [(0, 200, "--train-samples"), (400, 0, "--heldout-samples")] {
+        let error = metriplectic::classical::run(&metriplectic::classical::Options {
+            seed: 1,
+            train_samples: train,
+            heldout_samples: held_out,
+            trajectories: 2,
+            steps: 10,
+            step: 0.01,
+            out: out.clone(),
+            force: true,
+            quiet: true,
+        })
+        .unwrap_err();
+        assert!(error.to_string().contains(option), "{error}");
+    }
 }
 
 metriplectic! {
@@ -290,4 +313,46 @@ fn a_thermal_oscillator_is_identified_in_the_classical_form() {
         _ => None,
     });
     assert_eq!(metric_warning, Some((5, 6)), "{:?}", fit.warnings);
+}
+
+/// The equations are counted against the unknowns the classical form's
+/// equalities leave (8 of the rigid body's 94 coefficients): 4 samples
+/// determine the model, and the run said "12 equations for 94 unknown
+/// coefficients: the data cannot determine the model" (a probe); 2
+/// samples (6 equations) do not, and say so with the right count.
+#[test]
+fn the_equations_are_counted_against_what_the_equalities_leave() {
+    let held_out = classical_rigid_body_data(100, 2);
+    let truth = Model::<ClassicalRigidBody>::reference().unwrap();
+    let fit = identify::<ClassicalRigidBody>(
+        &classical_rigid_body_data(4, 5),
+        &IdentifyConfig::default(),
+    )
+    .unwrap();
+    let score = fit.model.compare(&truth, &held_out).unwrap();
+    println!("4 samples: {score:?}, {:?}", fit.warnings);
+    assert!(score.relative_error <= 1e-6, "{score:?}");
+    assert!(
+        !fit.warnings
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::Underdetermined { .. })),
+        "{:?}",
+        fit.warnings
+    );
+    let fit = identify::<ClassicalRigidBody>(
+        &classical_rigid_body_data(2, 5),
+        &IdentifyConfig::default(),
+    )
+    .unwrap();
+    assert!(
+        fit.warnings.iter().any(|w| matches!(
+            w,
+            IdentifyWarning::Underdetermined {
+                equations: 6,
+                unknowns: 8
+            }
+        )),
+        "{:?}",
+        fit.warnings
+    );
 }

@@ -82,7 +82,8 @@ pub enum IdentifyWarning {
     Underdetermined {
         /// Samples × state components.
         equations: usize,
-        /// Entropy coefficients plus the metric coefficients left free.
+        /// Entropy coefficients plus the metric coefficients left free,
+        /// less the combinations the classical form's equalities fix.
         unknowns: usize,
     },
     /// The samples determine only `rank` independent combinations of a
@@ -440,18 +441,20 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     let free = support.free_metric::<S>(config.search.sos);
     let free_entropy = support.free_entropy::<S>();
     let p = free_entropy.len();
-    let equations = data.equation_count() * S::DIM;
-    let mut warnings = Vec::new();
-    if equations < p + free.len() {
-        warnings.push(IdentifyWarning::Underdetermined {
-            equations,
-            unknowns: p + free.len(),
-        });
-    }
     // A classical system's equalities (S a Casimir, K∇H ≡ 0) fix some
-    // combinations whatever the data: only the rest are unknowns.
+    // combinations whatever the data: only the rest are unknowns (their
+    // rows are orthonormal, so each fixes one).
     let entropy_rows = Equalities::new(classical::entropy_rows::<S>(), &free_entropy).dense_rows();
     let metric_rows = Equalities::new(classical::metric_rows::<S>(), &free).dense_rows();
+    let equations = data.equation_count() * S::DIM;
+    let all_unknowns = (p + free.len()).saturating_sub(entropy_rows.len() + metric_rows.len());
+    let mut warnings = Vec::new();
+    if equations < all_unknowns {
+        warnings.push(IdentifyWarning::Underdetermined {
+            equations,
+            unknowns: all_unknowns,
+        });
+    }
     // On states far from the origin the rank is taken in centred
     // coordinates, as the searches fit (the same rank exactly; in x the
     // monomial columns are collinear to rounding). A classical system's
