@@ -44,7 +44,7 @@ pub struct Options {
     #[arg(long, default_value_t = 10_000)]
     pub steps: usize,
     /// Discrete-gradient step size.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.01)]
     pub step: f64,
     /// Output directory for `summary.json`.
     #[arg(long, default_value = "target/classical")]

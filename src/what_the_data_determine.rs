@@ -27,7 +27,7 @@ use crate::systems::{Linear2d, Linear2dDegree10};
 #[command(about = "What noisy measured states determine about the paper's 2-D system")]
 pub struct Options {
     /// State noise, as a fraction of the states' RMS.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.01)]
     pub noise: f64,
     /// Seed of the data and the resampling.
     #[arg(long, default_value_t = 1)]
@@ -294,6 +294,27 @@ struct MeasuredData {
 }
 
 fn measured_data(options: &Options) -> Result<MeasuredData> {
+    if !(options.noise.is_finite() && options.noise >= 0.0) {
+        return Err(Error::InvalidArgument {
+            what: "--noise".into(),
+            reason: format!(
+                "{}: the noise is a non-negative fraction of the states' RMS",
+                options.noise
+            ),
+        });
+    }
+    for (option, count) in [
+        ("--train-trajectories", options.train_trajectories),
+        ("--validation-trajectories", options.validation_trajectories),
+        ("--heldout-trajectories", options.heldout_trajectories),
+    ] {
+        if count == 0 {
+            return Err(Error::InvalidArgument {
+                what: option.into(),
+                reason: "0 trajectories: at least one is needed".into(),
+            });
+        }
+    }
     let experiment = experiments::linear_2d();
     let truth = Model::<Linear2d>::reference()?;
     let total = options

@@ -916,3 +916,64 @@ fn states_at_rest_leave_the_metric_undetermined_and_say_so() {
         "{report}"
     );
 }
+
+/// Bad options of the example are refused by name before anything runs:
+/// a negative noise (clap read `--noise -0.5` as an unknown `-0`
+/// argument) and no trajectories for one of the three roles (all three
+/// said "at least one trajectory is required").
+#[test]
+fn the_examples_bad_options_are_named() {
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("wtdd_bad_options");
+    let options = what_the_data_determine::Options {
+        noise: 0.01,
+        seed: 1,
+        train_trajectories: 10,
+        validation_trajectories: 5,
+        heldout_trajectories: 5,
+        replicates: 2,
+        out,
+        force: true,
+        quiet: true,
+    };
+    let parsed = <what_the_data_determine::Options as clap::Parser>::try_parse_from([
+        "what_the_data_determine",
+        "--noise",
+        "-0.5",
+    ])
+    .unwrap();
+    assert_eq!(parsed.noise, -0.5);
+    let cases = [
+        (
+            "--noise",
+            what_the_data_determine::Options {
+                noise: -0.5,
+                ..options.clone()
+            },
+        ),
+        (
+            "--train-trajectories",
+            what_the_data_determine::Options {
+                train_trajectories: 0,
+                ..options.clone()
+            },
+        ),
+        (
+            "--validation-trajectories",
+            what_the_data_determine::Options {
+                validation_trajectories: 0,
+                ..options.clone()
+            },
+        ),
+        (
+            "--heldout-trajectories",
+            what_the_data_determine::Options {
+                heldout_trajectories: 0,
+                ..options.clone()
+            },
+        ),
+    ];
+    for (option, bad) in cases {
+        let error = what_the_data_determine::run(&bad).unwrap_err().to_string();
+        assert!(error.contains(option), "{option}: {error}");
+    }
+}
