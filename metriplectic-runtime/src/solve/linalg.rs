@@ -718,12 +718,15 @@ fn faer_symmetric_eigen(
     Some((values, u))
 }
 
+/// U and V of a singular value decomposition.
+type SingularVectors = (faer::Mat<f64>, faer::Mat<f64>);
+
 /// The singular values (descending) of an m × n matrix and, if asked, its
 /// singular vectors (thin or full); `None` on failure.
 fn faer_svd(
     m: &DMatrix<f64>,
     vectors: faer::linalg::svd::ComputeSvdVectors,
-) -> Option<(Vec<f64>, Option<(faer::Mat<f64>, faer::Mat<f64>)>)> {
+) -> Option<(Vec<f64>, Option<SingularVectors>)> {
     use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
     let (rows, columns) = m.shape();
     let size = rows.min(columns);
