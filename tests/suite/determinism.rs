@@ -20,14 +20,18 @@ fn run_once() -> String {
     };
     let result = identify::<RigidBody>(&data, &config).unwrap();
     let history = serde_json::to_string(&without_timings(&result.history)).unwrap();
-    let bits: Vec<u64> = result
-        .model
+    let bits = coefficient_bits(&result.model);
+    format!("{history}\n{bits:?}\n{:?}", result.stop_reason)
+}
+
+/// The bits of every coefficient of `model`.
+fn coefficient_bits(model: &metriplectic_runtime::Model<RigidBody>) -> Vec<u64> {
+    model
         .entropy_coefficients()
         .iter()
-        .chain(result.model.metric_coefficients())
+        .chain(model.metric_coefficients())
         .map(|v| v.to_bits())
-        .collect();
-    format!("{history}\n{bits:?}\n{:?}", result.stop_reason)
+        .collect()
 }
 
 #[test]
@@ -111,13 +115,7 @@ fn equal_inputs_give_equal_models_on_one_thread_and_on_all() {
     };
     let run = || {
         let result = identify::<RigidBody>(&data, &config).unwrap();
-        let bits: Vec<u64> = result
-            .model
-            .entropy_coefficients()
-            .iter()
-            .chain(result.model.metric_coefficients())
-            .map(|v| v.to_bits())
-            .collect();
+        let bits = coefficient_bits(&result.model);
         let warnings: Vec<String> = result.warnings.iter().map(|w| w.to_string()).collect();
         (bits, warnings)
     };
