@@ -40,6 +40,14 @@ pub trait IdentificationData: sealed::Sealed + Clone + std::fmt::Debug + Send + 
     fn state_names(&self) -> Option<&[String]> {
         self.equations().names
     }
+
+    /// For weak-form data, how far the equations' targets move between two
+    /// neighbouring local polynomial degrees, and the two degrees (see
+    /// [`WeakDataset::quadrature_spread`](crate::WeakDataset::quadrature_spread));
+    /// `None` (the default) for pointwise data.
+    fn quadrature_spread(&self) -> Option<(f64, usize, usize)> {
+        None
+    }
 }
 
 pub(crate) mod sealed {

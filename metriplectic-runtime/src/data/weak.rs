@@ -138,6 +138,12 @@ pub struct WeakDataset {
     samples: Vec<usize>,
     weights: Vec<f64>,
     names: Option<Vec<String>>,
+    /// The same targets with local polynomials of a neighbouring degree
+    /// (`degrees.1`), or empty: how far they move is the quadrature's
+    /// uncertainty ([`WeakDataset::quadrature_spread`]).
+    alternative: Vec<f64>,
+    /// The local degree of `targets` and of `alternative`.
+    degrees: (usize, usize),
 }
 
 impl WeakDataset {
@@ -157,6 +163,55 @@ impl WeakDataset {
     /// (in name or order), the form is invalid, or a trajectory is shorter
     /// than the window (it would give no equation).
     pub fn from_trajectories(trajectories: &[Trajectory], form: &WeakForm) -> Result<Self> {
+        let mut data = Self::build(trajectories, form)?;
+        // The targets again with the neighbouring local degree, for the
+        // quadrature's uncertainty: a degree above where the window allows
+        // one, else below.
+        let d = form.local_degree;
+        let other = if d < 7 && d + 1 < form.window {
+            d + 1
+        } else {
+            d - 1
+        };
+        if other >= 1 && other != d {
+            let alternative = WeakForm {
+                local_degree: other,
+                ..*form
+            };
+            if let Ok(again) = Self::build(trajectories, &alternative) {
+                data.alternative = again.targets;
+                data.degrees = (d, other);
+            }
+        }
+        Ok(data)
+    }
+
+    /// How much the equations' targets move between the local degree of
+    /// [`WeakForm::local_degree`] and its neighbour: Σ|Δy|/Σ|y| over every
+    /// component, with the two degrees. On sparse samples the local
+    /// polynomials miss what happens between samples, and the equations,
+    /// and so any model fitted to them, are no more accurate than this
+    /// (with noisy states it includes how differently the two degrees
+    /// smooth the noise). `None` for a dataset without a second degree.
+    pub fn quadrature_spread(&self) -> Option<(f64, usize, usize)> {
+        if self.alternative.len() != self.targets.len() || self.targets.is_empty() {
+            return None;
+        }
+        let size: f64 = self.targets.iter().map(|y| y.abs()).sum();
+        let moved: f64 = self
+            .targets
+            .iter()
+            .zip(&self.alternative)
+            .map(|(y, z)| (y - z).abs())
+            .sum();
+        let spread = if size > 0.0 { moved / size } else { 0.0 };
+        spread
+            .is_finite()
+            .then_some((spread, self.degrees.0, self.degrees.1))
+    }
+
+    /// [`from_trajectories`](Self::from_trajectories) with `form` alone.
+    fn build(trajectories: &[Trajectory], form: &WeakForm) -> Result<Self> {
         form.validate()?;
         let first = trajectories
             .first()
@@ -225,6 +280,8 @@ impl WeakDataset {
             samples: Vec::new(),
             weights: Vec::new(),
             names: None,
+            alternative: Vec::new(),
+            degrees: (0, 0),
         }
     }
 
@@ -473,10 +530,17 @@ impl sealed::Sealed for WeakDataset {
             samples: Vec::new(),
             weights: Vec::new(),
             names: self.names.clone(),
+            alternative: Vec::new(),
+            degrees: self.degrees,
         };
+        let alternative = self.alternative.len() == self.targets.len();
         for &e in indices {
             out.targets
                 .extend_from_slice(&self.targets[e * n..(e + 1) * n]);
+            if alternative {
+                out.alternative
+                    .extend_from_slice(&self.alternative[e * n..(e + 1) * n]);
+            }
             let range = self.offsets[e]..self.offsets[e + 1];
             out.samples.extend_from_slice(&self.samples[range.clone()]);
             out.weights.extend_from_slice(&self.weights[range]);
@@ -492,6 +556,12 @@ impl sealed::Sealed for WeakDataset {
             .ok_or_else(|| invalid("weak-form datasets", "at least one is required"))?;
         let dim = first.dim;
         let mut all = Self::empty(dim);
+        // The spread is kept only where every part has it, at one pair of
+        // degrees.
+        let alternative = parts.iter().all(|part| {
+            part.alternative.len() == part.targets.len() && part.degrees == first.degrees
+        });
+        all.degrees = first.degrees;
         for (index, part) in parts.iter().enumerate() {
             if part.dim != dim {
                 return Err(invalid(
@@ -511,6 +581,9 @@ impl sealed::Sealed for WeakDataset {
             let (base, start) = (all.states.len() / dim, all.samples.len());
             all.states.extend_from_slice(&part.states);
             all.targets.extend_from_slice(&part.targets);
+            if alternative {
+                all.alternative.extend_from_slice(&part.alternative);
+            }
             all.samples.extend(part.samples.iter().map(|s| s + base));
             all.weights.extend_from_slice(&part.weights);
             all.offsets
@@ -520,7 +593,11 @@ impl sealed::Sealed for WeakDataset {
     }
 }
 
-impl IdentificationData for WeakDataset {}
+impl IdentificationData for WeakDataset {
+    fn quadrature_spread(&self) -> Option<(f64, usize, usize)> {
+        WeakDataset::quadrature_spread(self)
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -550,6 +627,18 @@ mod tests {
             .collect();
         let joined = WeakDataset::concat(&parts.iter().collect::<Vec<_>>()).unwrap();
         assert_eq!(joined, whole);
+        // Both keep the targets of the neighbouring local degree: the
+        // quadrature's spread of a selection of all equations, or of the
+        // parts joined, is the whole dataset's.
+        let spread = whole.quadrature_spread().unwrap();
+        assert_eq!((spread.1, spread.2), (2, 3));
+        assert!(spread.0 > 0.0 && spread.0 < 1e-3, "{spread:?}");
+        assert_eq!(joined.quadrature_spread(), Some(spread));
+        let all_equations: Vec<usize> = (0..whole.equation_count()).collect();
+        assert_eq!(
+            whole.select(&all_equations).unwrap().quadrature_spread(),
+            Some(spread)
+        );
         // Repeats are allowed (a bootstrap draws a part twice).
         let twice = WeakDataset::concat(&[&parts[1], &parts[1]]).unwrap();
         assert_eq!(twice.equation_count(), 2 * parts[1].equation_count());

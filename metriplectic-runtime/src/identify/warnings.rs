@@ -171,6 +171,22 @@ pub enum IdentifyWarning {
         /// The fit's typical relative residual on the data.
         relative_residual: f64,
     },
+    /// Weak-form equations that may be off by about `spread`: their targets
+    /// move by that fraction of their size between local polynomial
+    /// degrees `degree` and `other` ([`WeakDataset::quadrature_spread`](crate::WeakDataset::quadrature_spread)),
+    /// at least 3e-2 and ten times the fit's typical relative residual
+    /// (noisy states move the targets too, but leave as large a residual).
+    /// The samples are too sparse for the windows, and a model fitted to
+    /// the equations can be that far from the true field however well it
+    /// fits them.
+    WeakQuadrature {
+        /// Σ|Δy|/Σ|y| of the targets between the two degrees.
+        spread: f64,
+        /// `WeakForm::local_degree`.
+        degree: usize,
+        /// The neighbouring degree compared.
+        other: usize,
+    },
     /// A [`Gauge`](crate::Gauge) fixes the scale of K, but the data
     /// determine it already (Π∇E ≠ 0 on them): the gauge is then a
     /// constraint on the fit, which biases it unless its value is the true
@@ -300,6 +316,18 @@ impl std::fmt::Display for IdentifyWarning {
                  {relative_residual:.3} of the data's mean |ẋ| (0 is exact); the data \
                  may not come from this system or be mostly noise, or the model they need lies \
                  outside the basis, the support or the gauge"
+            ),
+            Self::WeakQuadrature {
+                spread,
+                degree,
+                other,
+            } => write!(
+                f,
+                "the weak-form equations' targets move by {spread:.1e} of their size between \
+                 local polynomial degrees {degree} and {other}, far more than the fit's \
+                 residual: on these sample times the equations, and so a model fitted to them, \
+                 may be off by about that much; sample more densely, shorten WeakForm::window, \
+                 or compare WeakForm::local_degree {other}"
             ),
             Self::GaugeConstrainsFit { trace } => write!(
                 f,
@@ -554,6 +582,18 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     // Judged by medians, as the L1 fit is: outliers the fit rightly ignores
     // leave large residuals that say nothing about the rest.
     let typical = typical_relative_residual(data, &entropy, &searched);
+    // Equations far less certain than the fit's residual: the fit follows
+    // the quadrature's error. Noisy states move the targets too, but then
+    // the residual is as large (noise cannot be fitted), and no warning.
+    if let Some((spread, degree, other)) = data.quadrature_spread() {
+        if spread >= QUADRATURE_SPREAD && typical * QUADRATURE_MARGIN <= spread {
+            warnings.push(IdentifyWarning::WeakQuadrature {
+                spread,
+                degree,
+                other,
+            });
+        }
+    }
     if typical >= POOR_FIT {
         // A fit this poor says nothing about symmetries of the data.
         warnings.push(IdentifyWarning::PoorFit {
@@ -635,6 +675,15 @@ fn joint_warning<S: MetriplecticSystem>(
         unknowns: report.unknowns,
     })
 }
+
+/// Weak-form targets that move by at least this fraction between two local
+/// degrees make an [`IdentifyWarning::WeakQuadrature`]: on the paper's
+/// data the spread is (measured below), and fits reach a few 1e-3.
+const QUADRATURE_SPREAD: f64 = 3e-2;
+
+/// How many times the fit's typical relative residual the spread must be
+/// for [`IdentifyWarning::WeakQuadrature`].
+const QUADRATURE_MARGIN: f64 = 10.0;
 
 /// A fit with at least this typical relative residual explains little of
 /// its data ([`IdentifyWarning::PoorFit`]).
