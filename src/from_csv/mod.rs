@@ -110,6 +110,54 @@ pub fn run_until(options: &Options, stop: &AtomicBool) -> Result<Summary, FromCs
     }
 }
 
+/// The runtime names a state whose basis functions overflow by its index
+/// in the equations, which the CSV does not show: the first such state of
+/// `trajectories` is named by its trajectory and time, as the CSV reader's
+/// own errors are. Other errors pass through.
+fn name_overflowing_row<S: MetriplecticSystem>(
+    error: FromCsvError,
+    trajectories: &[Trajectory],
+    path: &std::path::Path,
+) -> FromCsvError {
+    let FromCsvError::Runtime(Error::InvalidArgument { what, reason }) = &error else {
+        return error;
+    };
+    if what != "dataset" || !reason.contains("overflow") {
+        return error;
+    }
+    let n = S::DIM;
+    let mut entropy = vec![0.0; S::entropy_coefficient_count() * n];
+    let mut metric = vec![0.0; S::METRIC_EXPONENTS.len()];
+    let (mut gradient, mut poisson) = (vec![0.0; n], vec![0.0; n * n]);
+    for (index, trajectory) in trajectories.iter().enumerate() {
+        for k in 0..trajectory.len() {
+            let x = trajectory.state(k);
+            S::entropy_jacobian(x, &mut entropy);
+            S::metric_features(x, &mut metric);
+            S::hamiltonian_gradient(x, &mut gradient);
+            S::poisson(x, &mut poisson);
+            let finite = [&entropy, &metric, &gradient, &poisson]
+                .iter()
+                .all(|values| values.iter().all(|v| v.is_finite()));
+            if !finite {
+                let name = trajectory.id().map_or_else(
+                    || format!("training trajectory {index}"),
+                    |id| format!("trajectory `{id}`"),
+                );
+                return FromCsvError::Option(format!(
+                    "{}: {name}, sample {} (t = {}): the state {x:?} is too large for system \
+                     `{}`: its basis functions overflow f64; rescale the states",
+                    path.display(),
+                    k + 1,
+                    trajectory.times()[k],
+                    S::NAME
+                ));
+            }
+        }
+    }
+    error
+}
+
 /// The identification equations of a set of trajectories.
 enum Equations {
     Weak(WeakDataset),
@@ -235,7 +283,9 @@ impl Context<'_> {
 
         fs::create_dir_all(&options.out).map_err(io_error(&options.out))?;
         let identify_started = Instant::now();
-        let identification = self.identify::<S>(&train_equations)?;
+        let identification = self
+            .identify::<S>(&train_equations)
+            .map_err(|error| name_overflowing_row::<S>(error, &train, path))?;
         let seconds_identify = identify_started.elapsed().as_secs_f64();
         let model = &identification.model;
 

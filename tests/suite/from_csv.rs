@@ -367,6 +367,35 @@ fn bad_input_and_options_give_errors_that_say_what_is_wrong() {
     assert!(!out.exists(), "failed runs leave no output directory");
 }
 
+/// States whose basis functions overflow are named by trajectory and
+/// time, not by their index among the equations ("sample 0 (x = …)",
+/// which the CSV does not show).
+#[test]
+fn an_overflowing_state_is_named_by_its_trajectory_and_time() {
+    let csv = scratch("huge_states.csv");
+    let mut content = String::from("trajectory,t,q,p\n");
+    for trajectory in 0..4 {
+        for k in 0..20 {
+            let q = 1e150 * (1.0 + 0.01 * k as f64);
+            content.push_str(&format!("{trajectory},{},{q:e},1e150\n", 0.1 * k as f64));
+        }
+    }
+    std::fs::write(&csv, content).unwrap();
+    let options = Options {
+        system: Some(metriplectic::from_csv::SystemName::Linear2d),
+        ..quiet_options(&csv, &scratch("huge_states_out"))
+    };
+    let err = run(&options).unwrap_err().to_string();
+    println!("{err}");
+    for part in [
+        "huge_states.csv: trajectory `",
+        "sample 1 (t = 0)",
+        "overflow",
+    ] {
+        assert!(err.contains(part), "`{part}` not in: {err}");
+    }
+}
+
 #[test]
 fn a_non_empty_output_directory_is_refused_and_its_files_kept() {
     let csv = scratch("keep.csv");
