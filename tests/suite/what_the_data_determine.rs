@@ -410,6 +410,27 @@ fn the_analyses_check_their_inputs_and_fit_their_starts_to_each_support() {
     let error =
         bootstrap::<DuffingDegree8, _>(&groups, &IdentifyConfig::default(), &options).unwrap_err();
     assert!(error.to_string().contains("at most 100000"), "{error}");
+    // A group of the wrong width is refused before any replicate runs: it
+    // failed only the replicates that drew it, and the rest gave intervals
+    // of the resamples that never did (a probe).
+    let mixed = vec![train.clone(), wide.clone()];
+    let options = BootstrapOptions {
+        replicates: 4,
+        ..BootstrapOptions::default()
+    };
+    let error =
+        bootstrap::<DuffingDegree8, _>(&mixed, &IdentifyConfig::default(), &options).unwrap_err();
+    assert!(error.to_string().contains("group 1 of 2"), "{error}");
+    // States whose gradients' squares overflow (x⁷ = 1e210) are named,
+    // not a failed SVD.
+    let huge: Vec<[f64; 2]> = (0..20).map(|i| [1e30 * (1.0 + i as f64), 1e30]).collect();
+    let huge = Dataset::from_rows(2, &huge, &vec![[1.0, 1.0]; 20]).unwrap();
+    let error = identifiability(&dense, &huge, &IdentifiabilityOptions::default()).unwrap_err();
+    assert!(
+        error.to_string().contains("equation 0 (x = [1e30, 1e30])")
+            && error.to_string().contains("overflow"),
+        "{error}"
+    );
 
     // The true entropy plus a degree-6 term as the start: every cap below 6
     // holds that term at zero.

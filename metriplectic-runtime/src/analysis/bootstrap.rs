@@ -141,6 +141,17 @@ pub fn bootstrap<S: MetriplecticSystem, D: IdentificationData>(
             format!("{} is not in (0, 1)", options.level),
         ));
     }
+    // Every group before any replicate: a bad one would fail only the
+    // replicates that draw it, and the rest would give intervals
+    // conditioned on never drawing it.
+    for (index, group) in groups.iter().enumerate() {
+        crate::data::check_dataset::<S>(group).map_err(|error| {
+            invalid(
+                "bootstrap group",
+                format!("group {index} of {}: {error}", groups.len()),
+            )
+        })?;
+    }
     let config = &IdentifyConfig {
         checkpoint: None,
         ..config.clone()

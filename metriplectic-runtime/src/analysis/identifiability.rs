@@ -561,6 +561,8 @@ impl ScaledJacobian {
             Some(shift) => centred_entropy_regression::<S>(shift, data, theta)?,
             None => entropy_regression::<S>(data, theta)?,
         };
+        overflow_free(&metric_rows, data)?;
+        overflow_free(&entropy_rows, data)?;
         let entries = JacobianEntries {
             metric_rows,
             entropy_rows,
@@ -988,6 +990,40 @@ pub(crate) fn free_energy_variation<S: MetriplecticSystem>(
     }
     let parts = hamiltonian.sqrt() + entropy.sqrt();
     (parts > 0.0 && parts.is_finite()).then(|| energy.sqrt() / parts)
+}
+
+/// Errors unless every entry of `regression` has a finite square (column
+/// norms and the factorisation square them), naming the first equation
+/// that does not (and its state, for pointwise data): states so large that
+/// the basis's monomials reach 1e154 made the factorisation fail with "the
+/// singular value decomposition failed".
+fn overflow_free(regression: &Regression, data: &impl IdentificationData) -> Result<()> {
+    let width = regression.width.max(1);
+    let square_finite = |v: &f64| (v * v).is_finite();
+    let Some(row) = regression
+        .rows
+        .chunks(width)
+        .zip(&regression.target)
+        .position(|(row, target)| !(square_finite(target) && row.iter().all(square_finite)))
+    else {
+        return Ok(());
+    };
+    let equations = data.equations();
+    let equation = row / equations.dim.max(1);
+    let state = match equations.terms {
+        None => format!(
+            " (x = {:?})",
+            &equations.states[equation * equations.dim..(equation + 1) * equations.dim]
+        ),
+        Some(_) => String::new(),
+    };
+    Err(invalid(
+        "identifiability",
+        format!(
+            "equation {equation}{state}: the fit's Jacobian there has entries whose squares \
+             overflow f64: the states are too large for the basis; rescale the states"
+        ),
+    ))
 }
 
 /// An orthonormal basis (columns) of the vectors of length `k` orthogonal
