@@ -259,21 +259,13 @@ impl Balanced {
             other => return other,
         };
         let n = S::DIM;
-        let mut v: Vec<f64> = block
+        let v: Vec<f64> = block
             .iter()
             .map(|&j| direction[j] * self.factors[j])
             .collect();
-        let length = v.iter().map(|c| c * c).sum::<f64>().sqrt();
-        v.iter_mut().for_each(|c| *c /= length);
         let mut metric = vec![0.0; n * n];
         S::metric_value(&x, theta, &mut metric);
-        let k = block_matrix(&metric, n, block);
-        let u = DVector::from_column_slice(&v);
-        let quotient = (&k * &u).dot(&u);
-        let (eigenvalue, local) = match smallest_eigen(k) {
-            (value, vector) if value <= quotient => (value, vector),
-            _ => (quotient, v),
-        };
+        let (eigenvalue, local) = lowest_along(block_matrix(&metric, n, block), v);
         Error::MetricNotPositive {
             what,
             eigenvalue,
@@ -371,6 +363,21 @@ fn smallest_eigen(matrix: DMatrix<f64>) -> (f64, Vec<f64>) {
     }
 }
 
+/// K's smallest eigenvalue and its direction, or K's Rayleigh quotient
+/// along `v` (normalised here) and v where that is lower: `v` was found on
+/// a rescaled form of K, and K's own eigensolve loses what is below its
+/// rounding (−1e-3 next to 1e15 comes back as 0).
+fn lowest_along(k: DMatrix<f64>, mut v: Vec<f64>) -> (f64, Vec<f64>) {
+    let length = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+    v.iter_mut().for_each(|c| *c /= length);
+    let u = DVector::from_column_slice(&v);
+    let quotient = (&k * &u).dot(&u);
+    match smallest_eigen(k) {
+        (value, vector) if value <= quotient => (value, vector),
+        _ => (quotient, v),
+    }
+}
+
 /// The block's part of an n×n row-major metric value (local indices).
 fn block_matrix(metric: &[f64], n: usize, block: &[usize]) -> DMatrix<f64> {
     DMatrix::from_fn(block.len(), block.len(), |a, b| {
@@ -436,20 +443,9 @@ fn check_constant_block<S: MetriplecticSystem>(
     let scaled = DMatrix::from_fn(size, size, |a, b| k0[(a, b)] / (root[a] * root[b]));
     let (scaled_eigenvalue, u) = smallest_eigen(scaled);
     if scaled_eigenvalue.is_nan() || scaled_eigenvalue < -EIGENVALUE_TOLERANCE {
-        // K's own eigensolve loses what is below its rounding: take the
-        // scaled direction back, D^-½ u, and its Rayleigh quotient, unless
-        // K's smallest eigenvalue is lower.
-        let mut v: Vec<f64> = u.iter().zip(&root).map(|(u, r)| u / r).collect();
-        let length = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        v.iter_mut().for_each(|x| *x /= length);
-        let quotient: f64 = (0..size)
-            .flat_map(|a| (0..size).map(move |b| (a, b)))
-            .map(|(a, b)| v[a] * k0[(a, b)] * v[b])
-            .sum();
-        let (eigenvalue, direction) = match smallest_eigen(k0) {
-            (value, vector) if value <= quotient => (value, vector),
-            _ => (quotient, v),
-        };
+        // The scaled direction taken back, D^-½ u.
+        let v: Vec<f64> = u.iter().zip(&root).map(|(u, r)| u / r).collect();
+        let (eigenvalue, direction) = lowest_along(k0, v);
         return Err(Error::MetricNotPositive {
             what: what.to_owned(),
             eigenvalue,
