@@ -157,7 +157,10 @@ impl WeakDataset {
     /// [a, b] and the cardinal functions ℓⱼ of the local polynomials of
     /// degree `form.local_degree` through its samples, the equation is
     /// Σⱼ (∫φℓⱼ) f(xⱼ) = −Σⱼ (∫φ′ℓⱼ) xⱼ — the weak form of ẋ = f(x), no
-    /// derivative estimate, both sides averaging the states' noise.
+    /// derivative estimate, both sides averaging the states' noise. The
+    /// targets are formed a second time with the neighbouring local degree
+    /// for [`quadrature_spread`](Self::quadrature_spread), which doubles
+    /// this construction's (linear, small beside a fit's) work.
     ///
     /// Errors if there is no trajectory, the trajectories' state names differ
     /// (in name or order), the form is invalid, or a trajectory is shorter
