@@ -4,7 +4,12 @@
 //! Samples of one trajectory are correlated, so the unit of resampling is a
 //! whole trajectory (or any group the caller chooses): each replicate draws
 //! as many groups as there are, with replacement, and identifies on their
-//! union. Percentiles of the replicates give the intervals. Replicate b
+//! union. Percentiles of the replicates give the intervals. They measure
+//! how the fit varies between draws, not a bias that every draw shares
+//! (noisy states in the weak form or in derivative estimates pull every
+//! fit the same way), and with few groups they are narrower than their
+//! level: the spread of a resample understates the experiment's by about
+//! (G − 1)/G in variance for G groups. Replicate b
 //! draws from ChaCha8 seeded with (seed, b), and replicates run in parallel
 //! on rayon's pool, so the result is the same for a seed on any number of
 //! threads.
