@@ -201,6 +201,12 @@ fn link_target(path: &Path) -> std::io::Result<PathBuf> {
     Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
+/// Bytes of the target's name a temporary name keeps: with its dot and
+/// suffix (at most 42 bytes) it stays within the 255 bytes most file
+/// systems allow, so a name that is valid there gets a valid temporary
+/// (a 250-byte name failed with "File name too long" before).
+const TEMPORARY_NAME_PREFIX: usize = 200;
+
 /// A fresh temporary name next to `path`: hidden, with the process id and
 /// a per-process counter so that concurrent writers never share one.
 fn temporary_beside(path: &Path) -> Result<PathBuf> {
@@ -211,8 +217,17 @@ fn temporary_beside(path: &Path) -> Result<PathBuf> {
             format!("{} does not name a file", path.display()),
         )
     })?;
+    // Only a hint of the target for whoever finds a leftover: lossy and
+    // shortened on a character boundary.
+    let mut prefix = String::new();
+    for c in name.to_string_lossy().chars() {
+        if prefix.len() + c.len_utf8() > TEMPORARY_NAME_PREFIX {
+            break;
+        }
+        prefix.push(c);
+    }
     let mut temporary_name = std::ffi::OsString::from(".");
-    temporary_name.push(name);
+    temporary_name.push(prefix);
     temporary_name.push(format!(
         ".tmp-{}-{}",
         std::process::id(),
@@ -261,6 +276,20 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("state.json")]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A name of 255 bytes, the longest most file systems allow, is written
+    /// (its temporary name was longer than the limit; a probe).
+    #[test]
+    fn the_longest_file_names_are_written() {
+        let dir = scratch("long-name");
+        let path = dir.join(format!("{}.json", "é".repeat(125)));
+        assert_eq!(path.file_name().unwrap().len(), 255);
+        write_file(&path, b"first", WriteMode::CreateNew).unwrap();
+        write_file(&path, b"second", WriteMode::Overwrite).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"second");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
