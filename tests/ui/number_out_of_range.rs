@@ -1,6 +1,6 @@
 use metriplectic_runtime::metriplectic;
 
-// Exact 128-bit rationals hold neither: one is too small, the other too
+// Exact 128-bit rationals hold neither: one has too many decimal places, the other is too
 // large (not both "overflowed").
 metriplectic! {
     pub struct Oscillator;

@@ -92,10 +92,48 @@ impl Rational {
         (self.den == 1).then_some(self.num)
     }
 
-    /// Nearest `f64` (exact for numerators and denominators below 2⁵³,
-    /// because IEEE division is correctly rounded).
+    /// Nearest `f64`, ties to even. `num as f64 / den as f64` rounds twice
+    /// once either exceeds 2⁵³ (a literal of 17 or more digits), and was a
+    /// unit in the last place off for about a third of them (a probe:
+    /// `1.602176634e-19` came out as `1.6021766340000001e-19`).
     pub fn to_f64(self) -> f64 {
-        self.num as f64 / self.den as f64
+        if self.num == 0 {
+            return 0.0;
+        }
+        // Every non-zero |num/den| lies in [2⁻¹²⁷, 2¹²⁷): a normal f64.
+        let (num, den) = (self.num.unsigned_abs(), self.den.unsigned_abs());
+        // 64 significant bits of the quotient, value = mantissa · 2^exponent,
+        // and whether anything non-zero lies below them.
+        let (mut mantissa, mut remainder) = (num / den, num % den);
+        let mut exponent: i32 = 0;
+        while mantissa < 1 << 63 {
+            // remainder < den < 2¹²⁷, so doubling it stays in u128.
+            remainder <<= 1;
+            mantissa <<= 1;
+            if remainder >= den {
+                remainder -= den;
+                mantissa |= 1;
+            }
+            exponent -= 1;
+        }
+        let mut inexact = remainder != 0;
+        let excess = (128 - mantissa.leading_zeros()).saturating_sub(64);
+        if excess > 0 {
+            inexact |= mantissa & ((1 << excess) - 1) != 0;
+            mantissa >>= excess;
+            exponent += excess as i32;
+        }
+        // The lowest of 64 bits is far below the f64's rounding bit: set,
+        // it turns an exact tie into "above" exactly when the bits dropped
+        // were not all zero, so the one rounding of `as f64` is the right one.
+        let bits = mantissa as u64 | u64::from(inexact);
+        let power = f64::from_bits(((exponent + 1023) as u64) << 52);
+        let magnitude = bits as f64 * power;
+        if self.num < 0 {
+            -magnitude
+        } else {
+            magnitude
+        }
     }
 
     /// `self + other`.
@@ -187,7 +225,7 @@ impl Rational {
             .ok()
             .and_then(|digits| exponent.checked_sub(digits))
         else {
-            return Err(DecimalRange::Small);
+            return Err(DecimalRange::Small { places: None });
         };
         // Trailing zeros move into the exponent, so that `1.000…0` with 40
         // digits or `0e400` is not an overflow: only values that are not
@@ -216,7 +254,9 @@ impl Rational {
         let out_of_range = if scale >= 0 {
             DecimalRange::Large
         } else {
-            DecimalRange::Small
+            DecimalRange::Small {
+                places: Some(scale.unsigned_abs()),
+            }
         };
         let power = u32::try_from(scale.unsigned_abs())
             .ok()
@@ -236,9 +276,13 @@ impl Rational {
 pub enum DecimalRange {
     /// Its magnitude is beyond `i128` (about 1.7e38).
     Large,
-    /// It has more than 38 decimal places: its denominator 10^k is beyond
-    /// `i128`.
-    Small,
+    /// It has more than 38 decimal places (`places`, if that count fits a
+    /// u64): its denominator 10^k is beyond `i128`, whatever its magnitude
+    /// (`1.054571817e-34` has 43).
+    Small {
+        /// Decimal places after trailing zeros moved into the exponent.
+        places: Option<u64>,
+    },
     /// Its significant digits do not fit an `i128` numerator.
     Digits,
 }
@@ -589,6 +633,45 @@ mod tests {
         assert_eq!(Rational::new(1, 0).unwrap(), None);
     }
 
+    /// Decimals of up to 37 digits come out as the nearest f64, as Rust's
+    /// own (correctly rounded) parser gives them.
+    #[test]
+    fn decimals_round_to_the_nearest_f64() {
+        let cases: [(i128, u32); 5] = [
+            (1_602_176_634, 28),
+            (30_000_000_000_000_000_000_001, 23),
+            (12_345_678_901_234_567_890_123, 23),
+            (9_007_199_254_740_993, 0), // 2⁵³ + 1: a tie, to even
+            (99_999_999_999_999_999_999_999_999_999_999_999, 37),
+        ];
+        for (digits, places) in cases {
+            let value = r(digits, 10_i128.pow(places)).to_f64();
+            let expected: f64 = format!("{digits}e-{places}").parse().unwrap();
+            assert_eq!(value, expected, "{digits}e-{places}");
+            assert_eq!(r(-digits, 10_i128.pow(places)).to_f64(), -expected);
+        }
+        assert_eq!(r(1, 3).to_f64(), 1.0 / 3.0);
+        assert_eq!(r(i128::MAX, 1).to_f64(), 2f64.powi(127));
+        assert_eq!(r(1, i128::MAX).to_f64(), 1.0 / 2f64.powi(127));
+        assert_eq!(Rational::ZERO.to_f64(), 0.0);
+    }
+
+    proptest! {
+        #[test]
+        fn every_decimal_rounds_to_the_nearest_f64(
+            digits in 1_i128..10_i128.pow(37),
+            places in 0_u32..38,
+            scale_up in any::<bool>(),
+        ) {
+            let (rational, text) = if scale_up && digits.checked_mul(10_i128.pow(places)).is_some() {
+                (r(digits * 10_i128.pow(places), 1), format!("{digits}e{places}"))
+            } else {
+                (r(digits, 10_i128.pow(places)), format!("{digits}e-{places}"))
+            };
+            prop_assert_eq!(rational.to_f64(), text.parse::<f64>().unwrap());
+        }
+    }
+
     #[test]
     fn rational_arithmetic() {
         assert_eq!(r(1, 2).add(r(1, 3)).unwrap(), r(5, 6));
@@ -620,9 +703,17 @@ mod tests {
         assert_eq!(Rational::parse_decimal("1e400"), Err(DecimalRange::Large));
         assert_eq!(
             Rational::parse_decimal("1.5e-9223372036854775808"),
-            Err(DecimalRange::Small)
+            Err(DecimalRange::Small { places: None })
         );
-        assert_eq!(Rational::parse_decimal("1e-400"), Err(DecimalRange::Small));
+        assert_eq!(
+            Rational::parse_decimal("1e-400"),
+            Err(DecimalRange::Small { places: Some(400) })
+        );
+        // Well above 1e-38, but 43 places.
+        assert_eq!(
+            Rational::parse_decimal("1.054571817e-34"),
+            Err(DecimalRange::Small { places: Some(43) })
+        );
         let digits = format!("1.{}1", "0".repeat(40));
         assert_eq!(Rational::parse_decimal(&digits), Err(DecimalRange::Digits));
         let large = format!("1{}1", "0".repeat(40));
@@ -638,7 +729,10 @@ mod tests {
         assert_eq!(p("1000e-3"), Rational::ONE);
         assert_eq!(p("0.0025"), r(1, 400));
         // …but a denominator of 10³⁹ is not.
-        assert_eq!(Rational::parse_decimal("1e-39"), Err(DecimalRange::Small));
+        assert_eq!(
+            Rational::parse_decimal("1e-39"),
+            Err(DecimalRange::Small { places: Some(39) })
+        );
     }
 
     #[test]

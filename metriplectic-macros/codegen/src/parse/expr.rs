@@ -387,10 +387,18 @@ fn range_message(text: &str, range: DecimalRange) -> String {
             "is too large: exact 128-bit rationals hold magnitudes up to about 1.7e38; rescale \
              the state variables so that the coefficients are moderate"
         }
-        DecimalRange::Small => {
-            "is too small (it underflows): exact 128-bit rationals hold at most 38 decimal \
-             places (down to 1e-38); round it to 38 places, drop the term, or rescale the state \
-             variables so that the coefficients are moderate"
+        DecimalRange::Small { places } => {
+            // A count of places, not "too small": 1.054571817e-34 is far
+            // above 1e-38 and still has 43.
+            let places = match places {
+                Some(places) => format!("has {places} decimal places"),
+                None => "has too many decimal places".to_owned(),
+            };
+            return format!(
+                "the number `{text}` {places}: exact 128-bit rationals hold at most 38 (a step \
+                 of 1e-38); round it to 38 places, drop the term, or rescale the state variables \
+                 so that the coefficients are moderate"
+            );
         }
         DecimalRange::Digits => {
             "has too many significant digits: exact 128-bit rationals hold at most 38; round it"
@@ -473,7 +481,15 @@ mod tests {
         };
         let messages = system(quote!(1e-400 * p ^ 2 + q ^ 2));
         assert!(
-            messages[0].starts_with("the number `1e-400` is too small (it underflows)"),
+            messages[0].starts_with("the number `1e-400` has 400 decimal places"),
+            "{messages:?}"
+        );
+        let messages = system(quote!(1.054571817e-34 * p ^ 2 + q ^ 2));
+        assert!(
+            messages[0].starts_with(
+                "the number `1.054571817e-34` has 43 decimal places: exact 128-bit rationals \
+                 hold at most 38"
+            ),
             "{messages:?}"
         );
         let messages = system(quote!(1e400 * p ^ 2 + q ^ 2));
