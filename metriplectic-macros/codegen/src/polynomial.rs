@@ -16,8 +16,10 @@ pub struct Overflow;
 impl fmt::Display for Overflow {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(
-            "exact rational arithmetic overflowed 128-bit integers; \
-             use smaller coefficients or fewer decimal digits",
+            "exact rational arithmetic overflowed 128-bit integers: a coefficient's numerator \
+             or denominator passed about 1.7e38 (a product of very large or very small numbers, \
+             or of numbers with many digits); rescale the state variables so that the \
+             coefficients are moderate, or write them with fewer digits",
         )
     }
 }

@@ -5,7 +5,7 @@ use super::scope::exact;
 use super::work::{product, MAX_TERM_PRODUCTS, SHOWN_TERMS};
 use crate::diagnostics::Diagnostics;
 use crate::parse::{Matrix, SpanRange};
-use crate::polynomial::{Overflow, Polynomial};
+use crate::polynomial::{Overflow, Polynomial, Rational};
 
 /// Checks that Π is skew-symmetric, reporting every offending entry pair;
 /// whether it is.
@@ -103,6 +103,34 @@ pub fn check_jacobi(
 ) {
     let n = names.len();
     let span = SpanRange::single(matrix.span);
+    // The Jacobiator is quadratic in Π, so Π divided by one of its
+    // coefficients c violates the identity exactly where Π does, by 1/c²
+    // of it: coefficients such as 1e-20, whose products (1e-40) leave
+    // 128-bit rationals, become ratios of order one (a probe's scaled
+    // Nambu bracket was refused as an overflow).
+    let unit = poisson
+        .iter()
+        .find_map(|p| p.terms().next().map(|(_, c)| c));
+    let normalised = unit
+        .and_then(|c| Rational::ONE.div(c).ok().flatten())
+        .and_then(|inverse| {
+            poisson
+                .iter()
+                .map(|p| p.scale(inverse))
+                .collect::<Result<Vec<_>, _>>()
+                .ok()
+        });
+    let (poisson, unit) = match (&normalised, unit) {
+        (Some(normalised), Some(unit)) => (normalised.as_slice(), unit),
+        _ => (poisson, Rational::ONE),
+    };
+    let overflow = |_: Overflow| {
+        span.error(
+            "checking the Jacobi identity exactly overflowed 128-bit rationals (in products of \
+             Π's entries and their derivatives); write Π's coefficients with fewer digits, or \
+             rescale the state variables",
+        )
+    };
     let derivatives = (0..n)
         .map(|l| {
             poisson
@@ -111,7 +139,7 @@ pub fn check_jacobi(
                 .collect::<Result<Vec<_>, _>>()
         })
         .collect::<Result<Vec<_>, _>>();
-    let Some(derivatives) = exact(derivatives, span, diagnostics) else {
+    let Some(derivatives) = diagnostics.record(derivatives.map_err(overflow)) else {
         return;
     };
     let work = jacobi_work(poisson, &derivatives, n);
@@ -133,20 +161,29 @@ pub fn check_jacobi(
         for j in i + 1..n {
             for k in j + 1..n {
                 let value = jacobiator(poisson, n, (i, j, k), &derivatives);
-                let Some(value) = exact(value, span, diagnostics) else {
+                let Some(value) = diagnostics.record(value.map_err(overflow)) else {
                     return;
                 };
                 if !value.is_zero() {
+                    // The violation of Π itself, c² times the normalised one.
+                    let shown = unit
+                        .mul(unit)
+                        .and_then(|square| value.scale(square))
+                        .map(|value| format!("`{}`", value.display_at_most(names, SHOWN_TERMS)))
+                        .unwrap_or_else(|_| {
+                            format!(
+                                "({})² × `{}`",
+                                unit,
+                                value.display_at_most(names, SHOWN_TERMS)
+                            )
+                        });
                     diagnostics.push(span.error(format!(
                         "Π is skew-symmetric but violates the Jacobi identity, so it is not a \
                          Poisson tensor: for (i, j, k) = ({}, {}, {}) (indices {i}, {j}, {k}), \
-                         Σ_l (Π_il ∂_l Π_jk + Π_jl ∂_l Π_ki + Π_kl ∂_l Π_ij) = `{}`, not 0; \
+                         Σ_l (Π_il ∂_l Π_jk + Π_jl ∂_l Π_ki + Π_kl ∂_l Π_ij) = {shown}, not 0; \
                          use a Poisson tensor such as a constant skew matrix or a Lie–Poisson \
                          tensor (for so(3): [[0, -z, y], [z, 0, -x], [-y, x, 0]])",
-                        names[i],
-                        names[j],
-                        names[k],
-                        value.display_at_most(names, SHOWN_TERMS)
+                        names[i], names[j], names[k],
                     )));
                     return;
                 }
@@ -179,6 +216,46 @@ mod tests {
             }
         }
         ok
+    }
+
+    /// Coefficients whose products leave 128-bit rationals: a Nambu
+    /// bracket scaled by 1e-20 is a Poisson tensor (it was refused as an
+    /// overflow; a probe), and a scaled tensor that is not one is still
+    /// refused, with its violation in Π's own units.
+    #[test]
+    fn tensors_with_tiny_coefficients_are_checked_exactly() {
+        let expand = |poisson: proc_macro2::TokenStream| {
+            crate::try_expand(quote::quote! {
+                struct S; state (x, y, z); const s = 1e-20; poisson = #poisson;
+                hamiltonian = x^2 + y^2 + z^2; entropy degree 2; metric degree 0;
+            })
+        };
+        let nambu = quote::quote!([
+            [0, s * z ^ 2, -s * x ^ 2],
+            [-s * z ^ 2, 0, 2 * s * x * y],
+            [s * x ^ 2, -2 * s * x * y, 0]
+        ]);
+        assert!(expand(nambu).is_ok());
+        let so3 = quote::quote!([[0, -s * z, s * y], [s * z, 0, -s * x], [-s * y, s * x, 0]]);
+        assert!(expand(so3).is_ok());
+        let not_poisson = quote::quote!([[0, s, -s * x], [-s, 0, 0], [s * x, 0, 0]]);
+        let messages = expand(not_poisson).expect_err("not Poisson").messages();
+        assert!(
+            messages[0].contains("violates the Jacobi identity")
+                && messages[0].contains("× `-1`, not 0"),
+            "{messages:?}"
+        );
+        let small = quote::quote!([[0, 1e-10, -1e-10 * x], [-1e-10, 0, 0], [1e-10 * x, 0, 0]]);
+        let messages = crate::try_expand(quote::quote! {
+            struct S; state (x, y, z); poisson = #small;
+            hamiltonian = x^2; entropy degree 2; metric degree 0;
+        })
+        .expect_err("not Poisson")
+        .messages();
+        assert!(
+            messages[0].contains("= `-0.00000000000000000001`, not 0"),
+            "{messages:?}"
+        );
     }
 
     #[test]
