@@ -170,3 +170,136 @@ fn a_metric_negative_only_far_out_is_refused_with_a_state() {
     positive[metric_pair_index(2, 0, 0) * basis + q2] = 9e-9;
     Model::<Linear2d>::new(reference_entropy(), positive).unwrap();
 }
+
+metriplectic! {
+    /// A metric of degree 8 whose sum-of-squares certificate uses only two
+    /// of the 15 monomials of degree ≤ 4: K₀₀ = 1 + (a³b)².
+    pub struct SparseSquares;
+    state (a, b);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * (a^2 + b^2);
+    entropy degree 2;
+    metric degree 8;
+    region ball(radius = 1.5);
+    reference {
+        entropy = -a^2 - b^2;
+        metric = [[1 + a^6 * b^2, 0], [0, 1]];
+    }
+}
+
+/// A sum of squares whose Gram matrix over all monomials of half its
+/// degree has no interior (most rows must vanish) is still certified:
+/// 1 + a⁶b² was refused because the certificate program ended
+/// `AlmostSolved` there (a probe). Metrics near it that are not PSD are
+/// still refused with a state.
+#[test]
+fn sums_of_few_squares_of_high_degree_are_certified() {
+    let model = Model::<SparseSquares>::reference().unwrap();
+    let basis = SparseSquares::METRIC_EXPONENTS.len();
+    let term = |e: [u32; 2]| {
+        SparseSquares::METRIC_EXPONENTS
+            .iter()
+            .position(|x| *x == e)
+            .unwrap()
+    };
+    let entropy = model.entropy_coefficients().to_vec();
+    let mut theta = model.metric_coefficients().to_vec();
+    // 0.5 + a⁴b⁴ on the other diagonal entry.
+    theta[metric_pair_index(2, 1, 1) * basis + term([0, 0])] = 0.5;
+    theta[metric_pair_index(2, 1, 1) * basis + term([4, 4])] = 1.0;
+    Model::<SparseSquares>::new(entropy.clone(), theta.clone()).unwrap();
+    // (a³b − 1.5)² − 1.25: negative where a³b = 1.5.
+    let mut indefinite = theta.clone();
+    indefinite[term([3, 1])] = -3.0;
+    let error = Model::<SparseSquares>::new(entropy.clone(), indefinite).unwrap_err();
+    assert!(
+        matches!(error, Error::MetricNotPositive { state: Some(_), .. }),
+        "{error}"
+    );
+    // 1 + a⁶b² + a: the odd term cannot come from any square.
+    let mut odd = theta;
+    odd[term([1, 0])] = 1e-3;
+    let error = Model::<SparseSquares>::new(entropy, odd).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            Error::MetricNotPositive { state: Some(_), .. } | Error::MetricNotCertified { .. }
+        ),
+        "{error}"
+    );
+}
+
+metriplectic! {
+    /// A millimetre-scale oscillator certified on a ball of radius 3000.
+    pub struct Millimetres;
+    state (x, v);
+    poisson = [[0, -1], [1, 0]];
+    hamiltonian = 0.5 * v^2 + 0.5 * x^2;
+    entropy degree 2;
+    metric degree 2;
+    region ball(radius = 3000);
+}
+
+metriplectic! {
+    /// [`Millimetres`] with its certificate on the region only.
+    pub struct MillimetresOnRegion;
+    state (x, v);
+    poisson = [[0, -1], [1, 0]];
+    hamiltonian = 0.5 * v^2 + 0.5 * x^2;
+    entropy degree 2;
+    metric degree 2;
+    region ball(radius = 3000);
+    certificate on region;
+}
+
+/// A metric negative only in a narrow band, K₀₀ = (x − 1000)² − δ (below
+/// zero for |x − 1000| < √δ), passed the certificate within its tolerance
+/// and no fixed set of probed states fell into the band: with δ = 0.05 it
+/// was built, saved and loaded, and E fell at 0.05·|∇E|² at x = 1000 (a
+/// probe). The tight metric, δ = 0, and δ < 0 pass.
+#[test]
+fn a_metric_negative_in_a_narrow_band_is_refused_there() {
+    let basis = Millimetres::METRIC_EXPONENTS.len();
+    let term = |e: [u32; 2]| {
+        Millimetres::METRIC_EXPONENTS
+            .iter()
+            .position(|x| *x == e)
+            .unwrap()
+    };
+    let band = |delta: f64| {
+        let mut theta = vec![0.0; Millimetres::metric_coefficient_count()];
+        let k00 = metric_pair_index(2, 0, 0) * basis;
+        theta[k00 + term([0, 0])] = 1e6 - delta;
+        theta[k00 + term([1, 0])] = -2000.0;
+        theta[k00 + term([2, 0])] = 1.0;
+        theta[metric_pair_index(2, 1, 1) * basis + term([0, 0])] = 1.0;
+        theta
+    };
+    let entropy = vec![0.0; Millimetres::entropy_coefficient_count()];
+    for delta in [0.05, 0.5] {
+        let theta = band(delta);
+        let error = Model::<Millimetres>::new(entropy.clone(), theta.clone()).unwrap_err();
+        let Error::MetricNotPositive {
+            eigenvalue,
+            state: Some(state),
+            ..
+        } = &error
+        else {
+            panic!("{error}");
+        };
+        assert!((state[0] - 1000.0).abs() < delta.sqrt(), "{error}");
+        let mut k = [0.0; 4];
+        Millimetres::metric_value(state, &theta, &mut k);
+        assert!(k[0] < 0.0 && *eigenvalue < 0.0, "{k:?}");
+    }
+    for delta in [0.0, -0.05] {
+        Model::<Millimetres>::new(entropy.clone(), band(delta)).unwrap();
+    }
+    // The same on the region only: the band lies inside it.
+    let error = Model::<MillimetresOnRegion>::new(entropy.clone(), band(0.05)).unwrap_err();
+    assert!(
+        matches!(&error, Error::MetricNotPositive { state: Some(x), .. } if (x[0] - 1000.0).abs() < 0.3),
+        "{error}"
+    );
+    Model::<MillimetresOnRegion>::new(entropy, band(0.0)).unwrap();
+}
