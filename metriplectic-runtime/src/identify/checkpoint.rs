@@ -7,7 +7,9 @@
 //! counters, and a fingerprint of the system, the data and the
 //! configuration. [`identify_resume`](crate::identify_resume) continues from such a
 //! file exactly where the run left off, so with the same seed the resumed
-//! run's history equals an uninterrupted run's.
+//! run's history equals an uninterrupted run's. A digest of the file's
+//! content refuses a checkpoint edited since (a stop reason, best model or
+//! generator position resumed as given would not continue the run).
 //!
 //! Files are written atomically (temporary file in the same directory,
 //! flushed to disk, then renamed), so a crash or Ctrl-C while writing leaves
@@ -229,15 +231,15 @@ impl Fingerprint {
 /// FNV-1a (64 bit) over the dimension and the bit patterns of the data: any
 /// change of any value (even one ulp) changes it with high probability.
 fn data_hash(data: &impl IdentificationData) -> u64 {
+    fnv1a(data.equations().words().flat_map(u64::to_le_bytes))
+}
+
+/// FNV-1a (64 bit) of `bytes`.
+fn fnv1a(bytes: impl IntoIterator<Item = u8>) -> u64 {
     const PRIME: u64 = 0x0000_0100_0000_01b3;
-    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
-    for word in data.equations().words() {
-        for byte in word.to_le_bytes() {
-            hash ^= u64::from(byte);
-            hash = hash.wrapping_mul(PRIME);
-        }
-    }
-    hash
+    bytes.into_iter().fold(0xcbf2_9ce4_8422_2325, |hash, byte| {
+        (hash ^ u64::from(byte)).wrapping_mul(PRIME)
+    })
 }
 
 /// The on-disk form of a checkpoint.
@@ -272,6 +274,26 @@ struct CheckpointFile {
     /// same known parts (absent from earlier checkpoints: not checked).
     #[serde(default)]
     known_parts: Option<KnownParts>,
+    /// FNV-1a (64 bit, hex) of the file's JSON with this field `null`: a
+    /// checkpoint is resumed only as the run left it (absent from earlier
+    /// checkpoints: not checked).
+    #[serde(default)]
+    digest: Option<String>,
+}
+
+impl CheckpointFile {
+    /// The digest of this file's content, `digest` itself left out.
+    fn content_digest(&self) -> Result<String> {
+        let unsigned = CheckpointFile {
+            digest: None,
+            ..self.clone()
+        };
+        let json = serde_json::to_string(&unsigned).map_err(|source| Error::Json {
+            context: Some("checkpoint".to_owned()),
+            source,
+        })?;
+        Ok(format!("{:016x}", fnv1a(json.bytes())))
+    }
 }
 
 /// The configuration as the fingerprint compares it: the iteration cap may
@@ -327,6 +349,11 @@ pub(crate) fn save<S: MetriplecticSystem>(
             .as_ref()
             .and_then(|(model, _)| model.certificate().cloned()),
         known_parts: KnownParts::of::<S>(),
+        digest: None,
+    };
+    let file = CheckpointFile {
+        digest: Some(file.content_digest()?),
+        ..file
     };
     let json = serde_json::to_string(&file).map_err(|source| Error::Json {
         context: Some(path.display().to_string()),
@@ -404,6 +431,20 @@ pub(crate) fn load<S: MetriplecticSystem>(
             "the configuration differs in {}",
             differing_fields(&file.config, &wanted).join(", ")
         )));
+    }
+    // After the checks that name a changed system, data or configuration:
+    // an edited stop reason, best model or generator position resumed as
+    // given (a probe's "Converged" stopped a run at held-out error 8e-3).
+    if let Some(digest) = &file.digest {
+        let content = file.content_digest()?;
+        if *digest != content {
+            return Err(mismatch(format!(
+                "its content does not match the digest it was saved with ({digest}; the content \
+                 gives {content}): it was edited or damaged after the run wrote it, and a resumed \
+                 run would not continue the one that was interrupted; start a new run, or restore \
+                 the file"
+            )));
+        }
     }
     let numbered = file
         .history

@@ -251,6 +251,25 @@ fn integrate_with<S: MetriplecticSystem>(
             ),
         ));
     }
+    // Every step's state is kept (the region checks read them), and with
+    // `Steps` its output too: a count beyond memory aborted the process (a
+    // probe: a step of 1e-8 over [0, 40] with `max_steps` u32::MAX).
+    let per_step = if every_step { 3 * n + 4 } else { n + 1 };
+    let kept = total_steps as f64 * per_step as f64;
+    if kept > super::dopri::MAX_OUTPUT_VALUES {
+        return Err(invalid(
+            "discrete-gradient step",
+            format!(
+                "{} over [{}, {}] takes {total_steps} steps, and their {} states would be kept: \
+                 more than the 10⁸ values (800 MB) a simulation keeps (take a larger step or a \
+                 shorter interval)",
+                Num(step),
+                Num(t0),
+                Num(t_end),
+                n
+            ),
+        ));
+    }
 
     let mut stepper = Stepper::new(model);
     stepper.max_jacobians = max_jacobians;
@@ -1426,6 +1445,16 @@ mod tests {
         // Told in the messages' number format, and by its size.
         assert!(
             text.contains("1e-300 over") && text.contains("about 1.0e300 steps"),
+            "{err}"
+        );
+        // Steps within the budget whose states exceed memory are refused
+        // before any is taken (a probe's run aborted allocating 2 GB).
+        let mut huge = options(1e-8, OutputTimes::Interval(1.0));
+        huge.integrator.max_steps = u32::MAX;
+        let err = simulate(&model, &[1.0, 0.0], 0.0, 40.0, &huge).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("more than the 10⁸ values (800 MB)"),
             "{err}"
         );
     }

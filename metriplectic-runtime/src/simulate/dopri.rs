@@ -34,7 +34,9 @@ pub struct IntegratorOptions {
     /// near the states' own size leaves it nothing to detect.
     pub atol: f64,
     /// Maximal number of step attempts (accepted and rejected); 100 000 by
-    /// default.
+    /// default. DOPRI5 keeps every accepted step, so a budget whose steps
+    /// would hold more than 10⁸ values (about 6n + 56 per step for n
+    /// states) is refused before the run.
     pub max_steps: u32,
     /// Largest step size; `None` (the default) means the whole interval.
     pub max_step: Option<f64>,
@@ -381,8 +383,34 @@ fn validate(
 ) -> Result<()> {
     validate_start(x0, t0, t_end)?;
     validate_tolerances(options)?;
-    validate_output(x0.len(), t0, t_end, output)
+    validate_output(x0.len(), t0, t_end, output)?;
+    // ode_solvers keeps every accepted step (its dense output and the
+    // states): a budget of steps beyond what memory can hold aborted the
+    // process instead of returning an error (a probe: `max_step` 1e-8 with
+    // `max_steps` u32::MAX).
+    let per_step = DOPRI_VALUES_PER_STEP_PER_STATE * x0.len() as f64 + DOPRI_VALUES_PER_STEP;
+    if f64::from(options.max_steps) * per_step > MAX_OUTPUT_VALUES {
+        return Err(invalid(
+            "max_steps",
+            format!(
+                "{} steps of {} states would be kept at about {per_step} values each, more than \
+                 the 10⁸ values (800 MB) a simulation keeps; allow at most {} (the default is \
+                 100 000), or use the discrete gradient",
+                options.max_steps,
+                x0.len(),
+                (MAX_OUTPUT_VALUES / per_step).floor()
+            ),
+        ));
+    }
+    Ok(())
 }
+
+/// What ode_solvers keeps per accepted step of DOPRI5, in f64 values: five
+/// dense-output vectors and the state (per state variable), and per step
+/// the time and six vectors' allocations (about 540 bytes per step in 2-D).
+const DOPRI_VALUES_PER_STEP_PER_STATE: f64 = 6.0;
+/// See [`DOPRI_VALUES_PER_STEP_PER_STATE`].
+const DOPRI_VALUES_PER_STEP: f64 = 56.0;
 
 /// The initial state and the interval: what every integrator needs.
 pub(super) fn validate_start(x0: &[f64], t0: f64, t_end: f64) -> Result<()> {
@@ -476,7 +504,7 @@ fn validate_tolerances(options: &IntegratorOptions) -> Result<()> {
 
 /// Most values a simulation's outputs may hold (time, state, ẋ, E and its
 /// tolerance per output: 2n + 3 each), 800 MB of f64.
-const MAX_OUTPUT_VALUES: f64 = 1e8;
+pub(super) const MAX_OUTPUT_VALUES: f64 = 1e8;
 
 /// The output times within [t0, t_end] (`t0 < t_end` already checked), and
 /// no more of them than `MAX_OUTPUT_VALUES` can hold for `dim` states.
@@ -702,6 +730,18 @@ mod tests {
         assert!(run(0.0, 1.0, d(), out).contains("strictly increase"));
         let out = OutputTimes::Times(vec![0.5, 2.0]);
         assert!(run(0.0, 1.0, d(), out).contains("not within"));
+        // Every accepted step is kept: a budget beyond memory is refused
+        // (a probe's run aborted instead), the default is not.
+        let o = IntegratorOptions {
+            max_steps: u32::MAX,
+            ..d()
+        };
+        let message = run(0.0, 1.0, o, OutputTimes::Steps);
+        assert!(
+            message.contains("more than the 10⁸ values (800 MB)"),
+            "{message}"
+        );
+        integrate(f, &[1.0; 64], 0.0, 1.0, &d(), &OutputTimes::Steps).unwrap();
     }
 
     #[test]
