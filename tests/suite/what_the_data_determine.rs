@@ -744,7 +744,9 @@ fn a_gauge_the_data_do_not_need_and_a_fit_that_explains_nothing_are_warnings() {
     let junk = Dataset::from_flat(2, states, derivatives).unwrap();
     let fit = identify::<Linear2d>(&junk, &IdentifyConfig::default()).unwrap();
     let poor = fit.warnings.iter().find_map(|w| match w {
-        IdentifyWarning::PoorFit { relative_residual } => Some(*relative_residual),
+        IdentifyWarning::PoorFit {
+            relative_residual, ..
+        } => Some(*relative_residual),
         _ => None,
     });
     // The median residual against the mean |target|, well above the 0.5
@@ -762,6 +764,26 @@ fn a_gauge_the_data_do_not_need_and_a_fit_that_explains_nothing_are_warnings() {
         fit.warnings
             .iter()
             .any(|w| w.to_string().contains("explains little of the data")),
+        "{:?}",
+        fit.warnings
+    );
+
+    // Noise whose sizes spread over two decades: a few large targets lift
+    // the mean |ẋ|, and the median residual against it was below 0.5, so
+    // a fit that explains nothing came back without a warning (a probe).
+    let sizes: Vec<f64> = noise(400).iter().map(|u| 10_f64.powf(u - 1.0)).collect();
+    let spread: Vec<f64> = noise(400).iter().zip(&sizes).map(|(v, s)| v * s).collect();
+    let junk = Dataset::from_flat(2, noise(400), spread).unwrap();
+    let fit = identify::<Linear2d>(&junk, &IdentifyConfig::default()).unwrap();
+    let poor = fit.warnings.iter().find_map(|w| match w {
+        IdentifyWarning::PoorFit {
+            relative_residual,
+            per_target,
+        } => Some((*relative_residual, *per_target)),
+        _ => None,
+    });
+    assert!(
+        poor.is_some_and(|(typical, per_target)| typical < 0.5 && per_target >= 0.5),
         "{:?}",
         fit.warnings
     );

@@ -162,14 +162,20 @@ pub enum IdentifyWarning {
     },
     /// The model explains little of the data: the typical relative
     /// residual of its fit, median |prediction − target| over the
-    /// equations' components against their mean |target|, is at least 0.5
-    /// (0 is exact; a median, so that outliers the L1 fit ignores do not
-    /// count). The data may not come from the declared
-    /// system, be mostly noise, or need what the basis, the support or a
-    /// gauge exclude.
+    /// equations' components against their mean |target|, is at least 0.5,
+    /// or the median of each component's |residual| against its own
+    /// |target| (the median |target| where that is larger) is (0 is exact;
+    /// medians, so that outliers the L1 fit ignores do not count; the
+    /// second, because a few large targets lift the mean: pure noise whose
+    /// sizes span two decades had a typical residual below 0.5). The data
+    /// may not come from the declared system, be mostly noise, or need what
+    /// the basis, the support or a gauge exclude.
     PoorFit {
         /// The fit's typical relative residual on the data.
         relative_residual: f64,
+        /// The median of |residual| / max(|target|, median |target|) over
+        /// the equations' components.
+        per_target: f64,
     },
     /// Weak-form equations that may be off by about `spread`: their targets
     /// move by that fraction of their size between local polynomial
@@ -310,12 +316,16 @@ impl std::fmt::Display for IdentifyWarning {
                  certified on (`certificate on region`): dE/dt ≥ 0 is not proved where they are; \
                  enlarge the region or drop `certificate on region`"
             ),
-            Self::PoorFit { relative_residual } => write!(
+            Self::PoorFit {
+                relative_residual,
+                per_target,
+            } => write!(
                 f,
                 "the model explains little of the data: its typical residual is \
-                 {relative_residual:.3} of the data's mean |ẋ| (0 is exact); the data \
-                 may not come from this system or be mostly noise, or the model they need lies \
-                 outside the basis, the support or the gauge"
+                 {relative_residual:.3} of the data's mean |ẋ|, and a typical component's is \
+                 {per_target:.3} of its own (0 is exact); the data may not come from this system \
+                 or be mostly noise, or the model they need lies outside the basis, the support \
+                 or the gauge"
             ),
             Self::WeakQuadrature {
                 spread,
@@ -581,7 +591,7 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
     let misfit = relative_residual(data, &entropy, &searched);
     // Judged by medians, as the L1 fit is: outliers the fit rightly ignores
     // leave large residuals that say nothing about the rest.
-    let typical = typical_relative_residual(data, &entropy, &searched);
+    let (typical, per_target) = typical_relative_residuals(data, &entropy, &searched);
     // Equations far less certain than the fit's residual: the fit follows
     // the quadrature's error. Noisy states move the targets too, but then
     // the residual is as large (noise cannot be fitted), and no warning.
@@ -594,10 +604,11 @@ pub(crate) fn data_warnings<S: MetriplecticSystem>(
             });
         }
     }
-    if typical >= POOR_FIT {
+    if typical >= POOR_FIT || per_target >= POOR_FIT {
         // A fit this poor says nothing about symmetries of the data.
         warnings.push(IdentifyWarning::PoorFit {
             relative_residual: typical,
+            per_target,
         });
         return Ok(warnings);
     }
@@ -693,19 +704,42 @@ const POOR_FIT: f64 = 0.5;
 /// equations' components, against the data's scale (their mean |y|, 1 if
 /// all are zero): how well the fit explains a typical target, unmoved by a
 /// minority of outliers the L1 fit ignores, and by components that never
-/// move (a median of the targets would fall to them).
-fn typical_relative_residual(
+/// move (a median of the targets would fall to them). Second, the median
+/// of |rᵢ| / max(|yᵢ|, median |y|): the same per target, so that a few
+/// large targets do not hide that the others are not explained (pure noise
+/// with sizes spread over two decades had a typical residual of 0.3; a
+/// probe); the floor keeps small targets, noise-dominated in good fits,
+/// from counting as unexplained. Both 0 without equations.
+fn typical_relative_residuals(
     data: &impl IdentificationData,
     entropy: &Regression,
     psi: &[f64],
-) -> f64 {
-    let mut residuals: Vec<f64> = entropy.residuals(psi).iter().map(|r| r.abs()).collect();
+) -> (f64, f64) {
+    let residuals: Vec<f64> = entropy.residuals(psi).iter().map(|r| r.abs()).collect();
     if residuals.is_empty() {
-        return 0.0;
+        return (0.0, 0.0);
     }
-    let middle = residuals.len() / 2;
-    let median = *residuals.select_nth_unstable_by(middle, f64::total_cmp).1;
-    median / data.equations().scale()
+    let scale = data.equations().scale();
+    let targets: Vec<f64> = data.equations().targets.iter().map(|y| y.abs()).collect();
+    if targets.len() != residuals.len() {
+        return (median(residuals) / scale, 0.0);
+    }
+    let floor = match median(targets.clone()) {
+        m if m > 0.0 && m.is_finite() => m,
+        _ => scale,
+    };
+    let ratios: Vec<f64> = residuals
+        .iter()
+        .zip(&targets)
+        .map(|(r, y)| r / y.max(floor))
+        .collect();
+    (median(residuals) / scale, median(ratios))
+}
+
+/// The upper median of `values` (not empty).
+fn median(mut values: Vec<f64>) -> f64 {
+    let middle = values.len() / 2;
+    *values.select_nth_unstable_by(middle, f64::total_cmp).1
 }
 
 /// ‖r‖ / ‖y‖ of the entropy regression `entropy` at `psi`: the fit's
