@@ -201,7 +201,11 @@ fn the_classical_example_conserves_h_and_never_lets_s_fall() {
     assert!(summary.max_energy_drift <= 1e-12, "{summary:?}");
     assert_eq!(summary.entropy_decrease_fraction, 0.0, "{summary:?}");
     // DOPRI5 conserves H only to its tolerance: the contrast is real.
-    assert!(summary.max_energy_drift_dopri5 > 100.0 * summary.max_energy_drift.max(1e-16));
+    let dopri5 = summary
+        .max_energy_drift_dopri5
+        .expect("DOPRI5 integrates at step 0.01");
+    assert!(dopri5 > 100.0 * summary.max_energy_drift.max(1e-16));
+    assert_eq!(summary.dopri5_failure, None);
     assert_eq!(summary.unidentifiable_directions.len(), 1);
     // The run's warnings reach the summary (they were dropped): here the
     // scale the classical form never determines.
@@ -213,13 +217,18 @@ fn the_classical_example_conserves_h_and_never_lets_s_fall() {
     let written: metriplectic::classical::Summary =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(written, summary);
-    // No samples is an error that names the option (it panicked).
-    for (train, held_out, option) in [(0, 200, "--train-samples"), (400, 0, "--heldout-samples")] {
+    // No samples is an error that names the option (it panicked), and so
+    // are no trajectories (a vacuous report of 0 steps before).
+    for (train, held_out, trajectories, option) in [
+        (0, 200, 2, "--train-samples"),
+        (400, 0, 2, "--heldout-samples"),
+        (400, 200, 0, "--trajectories"),
+    ] {
         let error = metriplectic::classical::run(&metriplectic::classical::Options {
             seed: 1,
             train_samples: train,
             heldout_samples: held_out,
-            trajectories: 2,
+            trajectories,
             steps: 10,
             step: 0.01,
             out: out.clone(),
@@ -229,6 +238,26 @@ fn the_classical_example_conserves_h_and_never_lets_s_fall() {
         .unwrap_err();
         assert!(error.to_string().contains(option), "{error}");
     }
+    // A step DOPRI5 cannot take is reported in the summary, and the
+    // discrete gradient's results are kept (the whole run failed).
+    let summary = metriplectic::classical::run(&metriplectic::classical::Options {
+        seed: 1,
+        train_samples: 400,
+        heldout_samples: 200,
+        trajectories: 8,
+        steps: 3000,
+        step: 10.0,
+        out: out.clone(),
+        force: true,
+        quiet: true,
+    })
+    .unwrap();
+    assert_eq!(summary.steps, 24_000);
+    assert_eq!(summary.entropy_decrease_fraction, 0.0, "{summary:?}");
+    assert!(
+        summary.max_energy_drift_dopri5.is_none() && summary.dopri5_failure.is_some(),
+        "{summary:?}"
+    );
 }
 
 metriplectic! {
