@@ -518,12 +518,34 @@ pub fn run_until<S: MetriplecticSystem>(
     Ok(summary)
 }
 
+/// The files a run writes into its output directory.
+const OUTPUTS: [&str; 8] = [
+    "trajectories.png",
+    "trajectories.svg",
+    "loss.png",
+    "free_energy.png",
+    "history.csv",
+    "model.json",
+    "checkpoint.json",
+    "summary.json",
+];
+
 /// Refuses a non-empty directory unless `force`; creates it otherwise.
+/// With `force`, the previous run's outputs (regular files of the names in
+/// `OUTPUTS`, nothing else) are removed first: a forced run stopped by
+/// Ctrl-C left its new model beside the old run's summary and figures (a
+/// probe).
 fn prepare_output_dir(out: &Path, force: bool) -> Result<(), ReproductionError> {
     match fs::read_dir(out) {
         Ok(mut entries) => {
             if entries.next().is_some() && !force {
                 return Err(ReproductionError::OutputNotEmpty(out.to_owned()));
+            }
+            for name in OUTPUTS {
+                let path = out.join(name);
+                if fs::symlink_metadata(&path).is_ok_and(|meta| meta.is_file()) {
+                    fs::remove_file(&path).map_err(io_error(&path))?;
+                }
             }
         }
         Err(error) if error.kind() == std::io::ErrorKind::NotFound => {}

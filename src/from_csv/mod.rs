@@ -333,6 +333,9 @@ impl Context<'_> {
             files.push(name.to_owned());
             Ok::<(), FromCsvError>(())
         };
+        if options.overwrite {
+            output::remove_previous_outputs(out)?;
+        }
         let model_path = out.join("model.json");
         model.save(
             &model_path,

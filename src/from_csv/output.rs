@@ -45,6 +45,32 @@ pub(super) fn check_output_dir(out: &Path, overwrite: bool) -> Result<(), FromCs
     }
 }
 
+/// Removes the regular files of `out` that a run writes (the fixed
+/// outputs and the pipeline's figures, not any other `.png`), so that a run
+/// with `--overwrite` does not leave an earlier run's figures beside its
+/// own (a probe's rigid-body outputs sat beside a Duffing run's
+/// `validation_2..4.png`).
+pub(super) fn remove_previous_outputs(out: &Path) -> Result<(), FromCsvError> {
+    let Ok(entries) = fs::read_dir(out) else {
+        return Ok(());
+    };
+    for entry in entries {
+        let entry = entry.map_err(io_error(out))?;
+        let name = entry.file_name();
+        let text = name.to_string_lossy();
+        let figure = text.ends_with(".png")
+            && (text.starts_with("validation_")
+                || ["model_trajectories_3d.png", "loss.png", "free_energy.png"]
+                    .contains(&text.as_ref()));
+        let fixed = FIXED_OUTPUTS.iter().any(|fixed| name == *fixed);
+        let path = entry.path();
+        if (figure || fixed) && fs::symlink_metadata(&path).is_ok_and(|meta| meta.is_file()) {
+            fs::remove_file(&path).map_err(io_error(&path))?;
+        }
+    }
+    Ok(())
+}
+
 /// The files every run writes into the output directory (figures that
 /// cannot be written are warnings, not failures).
 const FIXED_OUTPUTS: [&str; 4] = ["model.json", "equations.txt", "history.csv", "summary.json"];

@@ -412,7 +412,11 @@ fn a_non_empty_output_directory_is_refused_and_its_files_kept() {
     let err = run(&quiet_options(&csv, &file)).unwrap_err();
     assert!(err.to_string().contains("not a directory"), "{err}");
 
-    // --overwrite writes next to the user's files and leaves them alone.
+    // --overwrite writes next to the user's files and leaves them alone,
+    // but removes an earlier run's figures first (a probe's new run sat
+    // beside another system's validation_2..4.png).
+    std::fs::write(out.join("validation_9.png"), "stale").unwrap();
+    std::fs::write(out.join("my_plot.png"), "mine").unwrap();
     let options = Options {
         overwrite: true,
         max_iterations: Some(2),
@@ -424,6 +428,11 @@ fn a_non_empty_output_directory_is_refused_and_its_files_kept() {
     assert_eq!(
         std::fs::read_to_string(out.join("notes.txt")).unwrap(),
         "precious"
+    );
+    assert!(!out.join("validation_9.png").exists());
+    assert_eq!(
+        std::fs::read_to_string(out.join("my_plot.png")).unwrap(),
+        "mine"
     );
 
     // …but not over its own input: a probe's `--data fit/history.csv

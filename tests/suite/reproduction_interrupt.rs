@@ -90,6 +90,31 @@ fn interrupted_reproduction_keeps_its_state_and_resumes_to_the_same_model() {
     let read = |dir: &Path| std::fs::read_to_string(dir.join("model.json")).unwrap();
     assert_eq!(read(&out), read(&straight), "same model, bit for bit");
 
+    // A forced run over the finished one, interrupted, leaves its own
+    // outputs only: the old summary and figures are removed first (they
+    // stayed beside the new model; a probe), the user's other files stay.
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    assert!(out.join("summary.json").is_file() && out.join("loss.png").is_file());
+    let err = run_until::<Linear2d>(
+        &experiment,
+        &Options {
+            force: true,
+            ..tiny_options(&out)
+        },
+        &AtomicBool::new(true),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(err, ReproductionError::Interrupted { .. }),
+        "{err}"
+    );
+    assert!(out.join("model.json").is_file() && out.join("checkpoint.json").is_file());
+    assert!(!out.join("summary.json").exists() && !out.join("loss.png").exists());
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "mine"
+    );
+
     // --resume without a checkpoint is an option error, not a fresh run.
     let empty = output_dir("interrupt-nothing");
     let err = run_until::<Linear2d>(
