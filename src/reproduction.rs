@@ -320,6 +320,7 @@ pub fn run_until<S: MetriplecticSystem>(
     stop: &AtomicBool,
 ) -> Result<Summary, ReproductionError> {
     let started = Instant::now();
+    check_counts(options)?;
     let out = options
         .out
         .clone()
@@ -516,6 +517,38 @@ pub fn run_until<S: MetriplecticSystem>(
         }
     }
     Ok(summary)
+}
+
+/// Refuses counts of zero by their option's name before any work: they
+/// were refused later under the library's names ("invalid max_iterations",
+/// "invalid log-uniform sample count"), or as another option's error
+/// (`--train-trajectories 0` as "held-out trajectories: 20 of 20"), or
+/// silently raised (`--plot-trajectories 0` plotted one); a probe.
+fn check_counts(options: &Options) -> Result<(), ReproductionError> {
+    let counts = [
+        ("--iterations", options.iterations.unwrap_or(1)),
+        ("--batch-size", options.batch_size),
+        ("--plot-trajectories", options.plot_trajectories),
+        ("--train-trajectories", options.train_trajectories),
+        ("--heldout-trajectories", options.heldout_trajectories),
+        ("--samples-per-trajectory", options.samples_per_trajectory),
+        ("--checkpoint-every", options.checkpoint_every),
+    ];
+    for (option, count) in counts {
+        if count == 0 {
+            return Err(ReproductionError::Option(format!(
+                "{option} 0: at least 1 is needed"
+            )));
+        }
+    }
+    if let Some(trace) = options.gauge_trace {
+        if !(trace.is_finite() && trace > 0.0) {
+            return Err(ReproductionError::Option(format!(
+                "--gauge-trace {trace:e}: must be a finite positive number"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The files a run writes into its output directory.

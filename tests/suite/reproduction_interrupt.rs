@@ -128,3 +128,79 @@ fn interrupted_reproduction_keeps_its_state_and_resumes_to_the_same_model() {
     .unwrap_err();
     assert!(matches!(err, ReproductionError::Option(_)), "{err}");
 }
+
+/// Counts of zero are refused by their option's name before any work
+/// (they were named by the library's fields, blamed on another option, or
+/// silently raised to one; a probe), and so is a gauge trace that is not
+/// a finite positive number, in the number format.
+#[test]
+fn zero_counts_are_refused_by_their_options_name() {
+    let experiment = experiments::linear_2d();
+    let out = output_dir("zero-counts");
+    let base = tiny_options(&out);
+    let cases = [
+        (
+            "--iterations 0",
+            Options {
+                iterations: Some(0),
+                ..base.clone()
+            },
+        ),
+        (
+            "--batch-size 0",
+            Options {
+                batch_size: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "--plot-trajectories 0",
+            Options {
+                plot_trajectories: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "--train-trajectories 0",
+            Options {
+                train_trajectories: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "--heldout-trajectories 0",
+            Options {
+                heldout_trajectories: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "--samples-per-trajectory 0",
+            Options {
+                samples_per_trajectory: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "--checkpoint-every 0",
+            Options {
+                checkpoint_every: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "--gauge-trace inf",
+            Options {
+                gauge_trace: Some(f64::INFINITY),
+                ..base.clone()
+            },
+        ),
+    ];
+    for (named, options) in cases {
+        let err =
+            run_until::<Linear2d>(&experiment, &options, &AtomicBool::new(false)).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains(named), "{named}: {text}");
+        assert!(!out.exists(), "{named}: nothing is made before the check");
+    }
+}

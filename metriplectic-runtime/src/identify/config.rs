@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::checkpoint::CheckpointConfig;
 use super::search::SearchOptions;
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Num, Result};
 use crate::model::{check_entropy, check_metric_coefficients};
 use crate::system::MetriplecticSystem;
 
@@ -352,7 +352,11 @@ impl IdentifyConfig {
                 if (value - wanted).abs() > 1e-6 * wanted {
                     return Err(invalid(
                         "initial metric coefficients",
-                        format!("the gauge fixes tr K(0) = {wanted}, they give {value}"),
+                        format!(
+                            "the gauge fixes tr K(0) = {}, they give {}",
+                            Num(wanted),
+                            Num(value)
+                        ),
                     ));
                 }
             }

@@ -9,7 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Num, Result};
 use crate::identify::search::{certificate_free_metric, SosBasis};
 use crate::system::{metric_pair_index, MetriplecticSystem};
 
@@ -278,7 +278,10 @@ impl Gauge {
             Self::MetricTrace(value) if value.is_finite() && value > 0.0 => Ok(()),
             Self::MetricTrace(value) => Err(invalid(
                 "gauge",
-                format!("metric trace {value} is not a finite positive number"),
+                format!(
+                    "metric trace {} is not a finite positive number",
+                    Num(value)
+                ),
             )),
         }
     }

@@ -23,7 +23,7 @@ pub(crate) use sos::certificate_free_metric;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Num, Result};
 use crate::identify::cost::Cost;
 use crate::identify::support::{Gauge, Support};
 use crate::model::classical::{self, Equalities};
@@ -99,8 +99,9 @@ impl SearchOptions {
             Some(Gauge::MetricTrace(value)) if value > S::DIM as f64 * eta => Err(invalid(
                 "gauge",
                 format!(
-                    "metric trace {value} exceeds n·η = {}: no metric with K ⪯ ηI has it",
-                    S::DIM as f64 * eta
+                    "metric trace {} exceeds n·η = {}: no metric with K ⪯ ηI has it",
+                    Num(value),
+                    Num(S::DIM as f64 * eta)
                 ),
             )),
             Some(gauge) if S::CLASSICAL.is_some() => check_gauge_is_free::<S>(gauge, self),
