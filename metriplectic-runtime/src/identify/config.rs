@@ -253,7 +253,9 @@ impl IdentifyConfig {
                     "must be at least 1 (use None for the full batch)",
                 ))
             }
-            Some(q) if q > pool => {
+            // A validation split that leaves no pool is its own error, named
+            // below (this one blamed the batch size; a probe).
+            Some(q) if q > pool && !(pool == 0 && self.held_out(samples) > 0) => {
                 return Err(invalid(
                     "batch size",
                     format!(
@@ -509,6 +511,26 @@ mod tests {
                 max_iterations: 3,
                 ..IdentifyConfig::default()
             }
+        );
+    }
+
+    /// A held-out fraction that leaves no batch samples is named, not the
+    /// batch size (it said "1 exceeds the 0 samples available for
+    /// batches"; a probe).
+    #[test]
+    fn a_split_that_leaves_no_pool_names_the_fraction() {
+        let config = IdentifyConfig {
+            batch_size: Some(1),
+            validation: super::Validation::HeldOut { fraction: 0.999 },
+            ..IdentifyConfig::default()
+        };
+        let err = config
+            .validate::<crate::test_system::Quadratic2d>(200)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("invalid validation fraction: 0.999 of 200"),
+            "{err}"
         );
     }
 }
