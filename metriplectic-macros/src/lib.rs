@@ -123,6 +123,14 @@ use proc_macro::TokenStream;
 /// variable in a denominator, `q^-1`, `q^0.5`, `sin(q)`, `q.powi(2)` — is a
 /// compile error pointing at the offending tokens.
 ///
+/// Every coefficient is the f64 nearest its exact rational value. H is
+/// expanded into monomials and evaluated in that form, so a factored H
+/// whose terms cancel loses the digits they share: `(q - p)^4` at
+/// (10001, 10000) evaluates to 0 rather than 1, since its monomials there
+/// are of order 1e16. Declare the state in coordinates where the terms are
+/// moderate (here the difference itself), as the runtime's centred
+/// coordinates do for the unknown parts.
+///
 /// # What it generates
 ///
 /// View it with `cargo expand`; `metriplectic-macros/codegen/snapshots/`
@@ -156,6 +164,10 @@ use proc_macro::TokenStream;
 ///   `ENTROPY_CONSTRAINTS`, `CASIMIR_BASIS`, `METRIC_CONSTRAINTS`).
 ///
 /// # Names and hygiene
+///
+/// The generated code refers to the runtime as `::metriplectic_runtime`:
+/// depend on it under that name (a dependency renamed in `Cargo.toml`,
+/// `mr = { package = "metriplectic-runtime", … }`, is not found).
 ///
 /// The generated code means the same whatever your scope holds: state
 /// variables are bound inside the `#[no_implicit_prelude]` module, where no
