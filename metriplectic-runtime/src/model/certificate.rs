@@ -960,11 +960,7 @@ fn ray_witness<S: MetriplecticSystem>(
             let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
             S::metric_value(&x, &cleaned, &mut metric);
             S::metric_value(&magnitude, &magnitudes, &mut sizes);
-            let rounding = block
-                .iter()
-                .flat_map(|&j| block.iter().map(move |&k| (j, k)))
-                .map(|(j, k)| sizes[j * n + k])
-                .fold(0.0_f64, f64::max);
+            let rounding = largest_entry(&sizes, n, block);
             let gram_unit = scale
                 * half
                     .iter()
@@ -1063,11 +1059,7 @@ fn descent_witness<S: MetriplecticSystem>(
         S::metric_value(x, theta, &mut metric);
         let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
         S::metric_value(&magnitude, &magnitudes, &mut sizes);
-        let rounding = block
-            .iter()
-            .flat_map(|&j| block.iter().map(move |&k| (j, k)))
-            .map(|(j, k)| sizes[j * n + k])
-            .fold(0.0_f64, f64::max);
+        let rounding = largest_entry(&sizes, n, block);
         let y: Vec<f64> = x
             .iter()
             .zip(&centre)
@@ -1171,6 +1163,15 @@ fn descent_witness<S: MetriplecticSystem>(
         }
     }
     None
+}
+
+/// The largest entry of the n × n `sizes` (row-major, each entry's
+/// Σ|c_α x^α|) on `block`: the rounding of evaluating the block there.
+fn largest_entry(sizes: &[f64], n: usize, block: &[usize]) -> f64 {
+    block
+        .iter()
+        .flat_map(|&j| block.iter().map(move |&k| sizes[j * n + k]))
+        .fold(0.0_f64, f64::max)
 }
 
 /// Whether the symmetric m × m matrix `a` (row-major) has a Cholesky
