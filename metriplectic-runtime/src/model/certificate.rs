@@ -1051,14 +1051,30 @@ fn descent_witness<S: MetriplecticSystem>(
         .collect();
     let magnitudes: Vec<f64> = theta.iter().map(|c| c.abs()).collect();
     let (mut metric, mut sizes) = (vec![0.0; n * n], vec![0.0; n * n]);
-    // (scale-free smallest eigenvalue, K's own and its direction, threshold)
-    let mut evaluate = |x: &[f64]| -> Option<(f64, f64, Vec<f64>, f64)> {
+    // The scale-free smallest eigenvalue, and where it is negative (K then
+    // is too: the scaling is a congruence) K's own with its direction and
+    // the threshold: an eigensolve of K only where it can show something.
+    type Violation = Option<(f64, Vec<f64>, f64)>;
+    let mut evaluate = |x: &[f64]| -> Option<(f64, Violation)> {
         if within.is_some_and(|region| !region.contains(x)) {
             return None;
         }
         S::metric_value(x, theta, &mut metric);
         let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
         S::metric_value(&magnitude, &magnitudes, &mut sizes);
+        let k = block_matrix(&metric, n, block);
+        let root: Vec<f64> = block
+            .iter()
+            .map(|&j| sizes[j * n + j].max(f64::MIN_POSITIVE).sqrt())
+            .collect();
+        let scaled = DMatrix::from_fn(k.nrows(), k.ncols(), |a, b| k[(a, b)] / (root[a] * root[b]));
+        let (scaled_lowest, _) = smallest_eigen(scaled);
+        if !scaled_lowest.is_finite() {
+            return None;
+        }
+        if scaled_lowest >= 0.0 {
+            return Some((scaled_lowest, None));
+        }
         let rounding = largest_entry(&sizes, n, block);
         let y: Vec<f64> = x
             .iter()
@@ -1072,20 +1088,10 @@ fn descent_witness<S: MetriplecticSystem>(
                 .map(|e| monomial_scale(&y, e).powi(2))
                 .sum::<f64>();
         let threshold = 1e-9 * rounding.max(unit);
-        let k = block_matrix(&metric, n, block);
-        let root: Vec<f64> = block
-            .iter()
-            .map(|&j| sizes[j * n + j].max(f64::MIN_POSITIVE).sqrt())
-            .collect();
-        let scaled = DMatrix::from_fn(k.nrows(), k.ncols(), |a, b| k[(a, b)] / (root[a] * root[b]));
-        let (scaled_lowest, _) = smallest_eigen(scaled);
         let (lowest, direction) = smallest_eigen(k);
-        (scaled_lowest.is_finite() && lowest.is_finite() && threshold.is_finite()).then_some((
-            scaled_lowest,
-            lowest,
-            direction,
-            threshold,
-        ))
+        let violation = (lowest.is_finite() && threshold.is_finite() && lowest < -threshold)
+            .then_some((lowest, direction, threshold));
+        Some((scaled_lowest, violation))
     };
     let mut rng = ChaCha8Rng::seed_from_u64(0xde5c);
     let mut starts = vec![centre.clone()];
@@ -1103,8 +1109,10 @@ fn descent_witness<S: MetriplecticSystem>(
         let Some(mut current) = evaluate(&x) else {
             continue;
         };
+        // Each line search starts at 4 times the last accepted step.
+        let mut last_step: f64 = 0.25;
         for _ in 0..DESCENT_STEPS {
-            if current.1 < -current.3 {
+            if current.1.is_some() {
                 break;
             }
             // Central differences, each on its variable's own scale.
@@ -1132,31 +1140,32 @@ fn descent_witness<S: MetriplecticSystem>(
             if length == 0.0 {
                 break;
             }
-            let mut step = 1.0;
-            let mut moved = false;
+            let mut step = (4.0 * last_step).min(1.0);
+            let mut accepted = None;
             while step > 1e-12 {
                 let trial: Vec<f64> = (0..n)
                     .map(|i| x[i] - step * rho[i] * rho[i] * gradient[i] / length)
                     .collect();
-                if let Some(next) = evaluate(&trial) {
-                    if next.0 < current.0 {
-                        x = trial;
-                        current = next;
-                        moved = true;
-                        break;
-                    }
+                if let Some(next) = evaluate(&trial).filter(|next| next.0 < current.0) {
+                    accepted = Some((trial, next));
+                    break;
                 }
                 step *= 0.5;
             }
-            if !moved {
+            let Some((trial, next)) = accepted else {
+                break;
+            };
+            // Settled: the scale-free value no longer moves.
+            let settled = current.0 - next.0 <= 1e-12 * (1.0 + current.0.abs());
+            (x, current, last_step) = (trial, next, step);
+            if settled {
                 break;
             }
         }
-        let (_, lowest, direction, threshold) = current;
-        if lowest < -threshold {
+        if let Some((eigenvalue, direction, _)) = current.1 {
             return Some(Error::MetricNotPositive {
                 what: what.to_owned(),
-                eigenvalue: lowest,
+                eigenvalue,
                 direction: embed(n, block, &direction),
                 state: Some(x),
             });
