@@ -139,24 +139,33 @@ fn check_state_dependent_block<S: MetriplecticSystem>(
     block: &[usize],
 ) -> Result<()> {
     let scale = block_scale::<S>(theta, block);
-    if let Err(reason) = certify_block::<S>(theta, block, scale) {
+    let shift = match certify_block::<S>(theta, block, scale) {
+        Ok(shift) => shift,
         // A state that shows it, near the origin or far out.
-        return Err(witness::<S>(what, theta, block, scale)
-            .or_else(|| vertex_witness::<S>(what, theta, block, scale))
-            .or_else(|| ray_witness::<S>(what, theta, block, scale))
-            .or_else(|| descent_witness::<S>(what, theta, block, None))
-            .unwrap_or(Error::MetricNotCertified {
-                what: what.to_owned(),
-                reason,
-            }));
-    }
+        Err(reason) => {
+            return Err(witness::<S>(what, theta, block, scale)
+                .or_else(|| vertex_witness::<S>(what, theta, block, scale))
+                .or_else(|| ray_witness::<S>(what, theta, block, scale))
+                .or_else(|| descent_witness::<S>(what, theta, block, None))
+                .unwrap_or(Error::MetricNotCertified {
+                    what: what.to_owned(),
+                    reason,
+                }))
+        }
+    };
     // The certificate's tolerance allows K(x) ⪰ −s‖Z(x)‖²I, which far out
     // can exceed K itself, and in a narrow band anywhere: a state where it
-    // does is refused.
+    // does is refused. A shift of at most `DESCENT_SHIFT` bounds K below
+    // by that fraction of the descent's unit, so no state can pass its
+    // threshold, and the descent (a third of the drag examples' time) is
+    // left out: searched metrics sit at shifts near 1e-12.
     match vertex_witness::<S>(what, theta, block, scale)
         .or_else(|| ray_witness::<S>(what, theta, block, scale))
-        .or_else(|| descent_witness::<S>(what, theta, block, None))
-    {
+        .or_else(|| {
+            (shift > DESCENT_SHIFT)
+                .then(|| descent_witness::<S>(what, theta, block, None))
+                .flatten()
+        }) {
         Some(error) => Err(error),
         None => Ok(()),
     }
@@ -468,7 +477,7 @@ fn certify_block<S: MetriplecticSystem>(
     theta: &[f64],
     block: &[usize],
     scale: f64,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<f64, String> {
     // In y = x − c for a region far from the origin, as the searches'
     // certificates (`Layout`): K(x) ⪰ 0 for every x exactly when
     // K(c + y) ⪰ 0 for every y.
@@ -511,18 +520,19 @@ fn certify_block<S: MetriplecticSystem>(
         .flat_map(|a| (0..half.len()).map(move |beta| (a, beta)))
         .collect();
     let reduced = consistent_rows::<S>(theta, block, &half);
-    if reduced.len() < all.len()
-        && certify_on_rows::<S>(theta, block, &half, &reduced, &rho, scale).is_ok()
-    {
-        return Ok(());
+    if reduced.len() < all.len() {
+        if let Ok(shift) = certify_on_rows::<S>(theta, block, &half, &reduced, &rho, scale) {
+            return Ok(shift);
+        }
     }
     certify_on_rows::<S>(theta, block, &half, &all, &rho, scale)
 }
 
 /// min |s| s.t. T(Q) = θ_C, Q + s·I ⪰ 0 for a block's certificate with Q
 /// over the Gram rows `gram_rows` ((a, β): the block's a-th row and the
-/// monomial `half[β]`), in the coordinates of [`certify_block`]; `Ok` if
-/// its optimum is within tolerance.
+/// monomial `half[β]`), in the coordinates of [`certify_block`]; `Ok`
+/// with the optimal shift relative to the block's scaled size if it is
+/// within tolerance.
 fn certify_on_rows<S: MetriplecticSystem>(
     theta: &[f64],
     block: &[usize],
@@ -530,7 +540,7 @@ fn certify_on_rows<S: MetriplecticSystem>(
     gram_rows: &[(usize, usize)],
     rho: &[f64],
     scale: f64,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<f64, String> {
     let exponents = S::METRIC_EXPONENTS;
     let size = gram_rows.len();
     if size > MAX_GRAM_SIDE {
@@ -635,7 +645,7 @@ fn certify_on_rows<S: MetriplecticSystem>(
     let verified = solution.status == SolveStatus::Solved
         || verify(&matching, &[(1, size)], solution.coefficients());
     if solution.status.is_usable() && verified && s <= CERTIFICATE_TOLERANCE * scale {
-        Ok(())
+        Ok(solution.coefficients()[0])
     } else {
         Err(format!(
             "the best sum-of-squares Gram matrix of side {size} needs a shift s = {s:e} to be \
@@ -994,6 +1004,10 @@ fn ray_witness<S: MetriplecticSystem>(
     }
     None
 }
+
+/// Relative certificate shift above which [`descent_witness`] runs on a
+/// certified block: its threshold is 1e-9 of the same unit.
+const DESCENT_SHIFT: f64 = 1e-9;
 
 /// Starting states of [`descent_witness`] besides the region's centre.
 const DESCENT_STARTS: usize = 24;
