@@ -51,6 +51,20 @@ struct Options {
     only: Option<String>,
 }
 
+/// The rows' labels, in the order they are printed (what `--only` matches).
+const ROW_LABELS: [&str; 10] = [
+    "exact ẋ, clean states",
+    "exact ẋ + same relative noise on ẋ",
+    "exact ẋ at the noisy states",
+    "finite differences, order 2",
+    "finite differences, order 4",
+    "Savitzky–Golay, 7 samples, degree 2",
+    "Savitzky–Golay, 11 samples, degree 3",
+    "cubic smoothing spline, λ by GCV",
+    "weak form (default)",
+    "weak form, cubic local polynomials",
+];
+
 /// One row of the table.
 struct Row {
     method: String,
@@ -61,6 +75,15 @@ struct Row {
 
 fn main() -> ExitCode {
     let options = Options::parse();
+    if let Some(only) = &options.only {
+        if !ROW_LABELS.iter().any(|label| label.contains(only.as_str())) {
+            eprintln!(
+                "error: --only {only:?} matches no row; the rows are:\n  {}",
+                ROW_LABELS.join("\n  ")
+            );
+            return ExitCode::FAILURE;
+        }
+    }
     let mut ok = true;
     for (name, run) in [
         (
@@ -151,6 +174,7 @@ fn study<S: MetriplecticSystem>(experiment: &Experiment, options: &Options) -> R
 
     let measured = training(&noisy_states);
     let wanted = |label: &str| {
+        debug_assert!(ROW_LABELS.contains(&label), "{label} is not in ROW_LABELS");
         options
             .only
             .as_ref()
