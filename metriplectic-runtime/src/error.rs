@@ -247,6 +247,12 @@ pub enum CsvError {
         /// The columns the system expects.
         expected: String,
     },
+    /// The input is longer than [`MAX_CSV_BYTES`](crate::MAX_CSV_BYTES).
+    #[error("the input is longer than {limit} bytes, the most a CSV is read into memory (an endless stream such as /dev/zero, or a file to split into several)")]
+    TooLarge {
+        /// The limit in bytes.
+        limit: u64,
+    },
     /// The header has no data rows after it.
     #[error("no data rows after the header (line {line})")]
     NoRows {
@@ -460,7 +466,7 @@ pub enum SimulationError {
     /// ([`Method::DiscreteGradient`](crate::Method::DiscreteGradient)) was
     /// not solved to rounding: its iteration diverged, or stalled above a
     /// few ulps of the state.
-    #[error("discrete-gradient step {step} from t = {} with step size {} did not converge: the last update (or residual) of its implicit equation was {update:e} after {iterations} iterations, above rounding (take a smaller step)", Num(*.t), Num(*.h))]
+    #[error("discrete-gradient step {step} from t = {} with step size {} at |x| = {} did not converge: the last update (or residual) of its implicit equation was {update:e} after {iterations} iterations, above rounding (take a smaller step; if |x| grows without bound along the trajectory, the solution may blow up in finite time)", Num(*.t), Num(*.h), Num(*.state_norm))]
     StepNotConverged {
         /// Index of the step (0 for the first).
         step: usize,
@@ -474,6 +480,8 @@ pub enum SimulationError {
         update: f64,
         /// Iterations done.
         iterations: u32,
+        /// Euclidean norm of the state the step started from.
+        state_norm: f64,
     },
     /// The vector field or the state became NaN or infinite.
     #[error("integration failed at t = {}: non-finite {what} in component {index}", Num(*.t))]

@@ -345,6 +345,7 @@ fn integrate_with<S: MetriplecticSystem>(
                     h,
                     update,
                     iterations,
+                    state_norm: x.iter().map(|v| v * v).sum::<f64>().sqrt(),
                 })?;
             if let Some(index) = x_next.iter().position(|v| !v.is_finite()) {
                 return Err(SimulationError::NonFinite {

@@ -428,6 +428,19 @@ pub(super) fn validate_start(x0: &[f64], t0: f64, t_end: f64) -> Result<()> {
             ),
         ));
     }
+    // Integrators step in τ = t − t0: a span beyond f64's range (e.g.
+    // [−1e308, 1e308]) would make every step size infinite.
+    if !(t_end - t0).is_finite() {
+        return Err(invalid(
+            "time interval",
+            format!(
+                "[{}, {}]: its length t_end − t0 overflows to infinity; integrate over a shorter \
+                 interval",
+                Num(t0),
+                Num(t_end)
+            ),
+        ));
+    }
     // Outputs are reported at t0 + τ: an interval only a few ulps of its
     // times long has no distinct times to report.
     let spacing = ulp(t0.abs().max(t_end.abs()));
@@ -613,6 +626,18 @@ mod tests {
             assert!(err.contains(shown), "{err}");
             assert!(err.contains("too short to integrate over"), "{err}");
         }
+        // A probe's [−1e308, 1e308] ended "stiff": its length is infinite.
+        let err = integrate(
+            field,
+            &[1.0],
+            -1e308,
+            1e308,
+            &IntegratorOptions::default(),
+            &OutputTimes::Steps,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("overflows to infinity"), "{err}");
         // Long enough in ulps: integrated, from the same time origin.
         let sol = integrate(
             field,
