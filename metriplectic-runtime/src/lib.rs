@@ -105,7 +105,7 @@ pub use data::{
     dataset_from_trajectories, differentiate, estimate_all, estimate_derivatives,
     fit_smoothing_spline, read_trajectories, read_trajectories_from, write_trajectories,
     write_trajectories_to, Dataset, DerivativeMethod, IdentificationData, SmoothingSplineFit,
-    Trajectory, WeakDataset, WeakForm,
+    Trajectory, WeakDataset, WeakForm, MAX_CSV_BYTES,
 };
 #[cfg(feature = "plot")]
 pub use error::PlotError;

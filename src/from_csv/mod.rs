@@ -56,7 +56,7 @@ use std::time::Instant;
 use metriplectic_runtime::prelude::*;
 use metriplectic_runtime::{
     identifiability, identify_with_observer, read_trajectories_from, CsvError, Identifiability,
-    IdentifiabilityOptions, Identification, IterationRecord, Score,
+    IdentifiabilityOptions, Identification, IterationRecord, Score, MAX_CSV_BYTES,
 };
 
 use crate::systems::{Duffing, Linear2d, RigidBody};
@@ -91,7 +91,7 @@ pub fn run_until(options: &Options, stop: &AtomicBool) -> Result<Summary, FromCs
     check_output_files(&options.out)?;
     // Read once, whole: the header and the rows come from the same bytes,
     // so a pipe or FIFO (`--data /dev/stdin`, `--data <(…)`) reads too.
-    let data = fs::read(&options.data).map_err(io_error(&options.data))?;
+    let data = read_capped(&options.data)?;
     let system = match options.system {
         Some(system) => system,
         None => infer_system(&options.data, &data)?,
@@ -211,6 +211,26 @@ impl Equations {
     }
 }
 
+/// The CSV's bytes, at most [`MAX_CSV_BYTES`] of them: `--data /dev/zero`
+/// ran out of memory.
+fn read_capped(path: &std::path::Path) -> Result<Vec<u8>, FromCsvError> {
+    use std::io::Read;
+    let mut data = Vec::new();
+    fs::File::open(path)
+        .and_then(|file| file.take(MAX_CSV_BYTES + 1).read_to_end(&mut data))
+        .map_err(io_error(path))?;
+    if data.len() as u64 > MAX_CSV_BYTES {
+        return Err(FromCsvError::Data {
+            path: path.to_owned(),
+            source: CsvError::TooLarge {
+                limit: MAX_CSV_BYTES,
+            }
+            .into(),
+        });
+    }
+    Ok(data)
+}
+
 /// What one run needs besides the system type.
 struct Context<'a> {
     options: &'a Options,
@@ -252,8 +272,12 @@ impl Context<'_> {
         let (train, validation) =
             split_by_trajectory(&trajectories, options.validation_fraction, options.seed)?;
         let train_equations = Equations::build(&train, &method).map_err(|source| {
-            let hint = match method {
-                DataMethod::Weak(_) => {
+            // Only a window longer than the trajectories is helped by the
+            // derivative route; other data errors name their own cause.
+            let hint = match (&method, &source) {
+                (DataMethod::Weak(_), Error::InvalidArgument { what, .. })
+                    if what == "weak-form window" =>
+                {
                     " (the window is --window N); shorter trajectories need --derivatives METHOD"
                 }
                 _ => "",

@@ -394,6 +394,29 @@ fn an_overflowing_state_is_named_by_its_trajectory_and_time() {
     ] {
         assert!(err.contains(part), "`{part}` not in: {err}");
     }
+
+    // A cell near f64::MAX overflows the weak form's target: that is named,
+    // without the hint for trajectories shorter than a window (a probe's
+    // run suggested --derivatives for it).
+    let csv = scratch("max_cell.csv");
+    let mut content = String::from("trajectory,t,q,p\n");
+    for trajectory in 0..4 {
+        for k in 0..20 {
+            // Large enough for Σ φ′ⱼ qⱼ to overflow before any basis function.
+            let q = if k < 10 { 1.7e308 } else { -1.7e308 };
+            content.push_str(&format!("{trajectory},{},{q:e},1\n", 1e-3 * k as f64));
+        }
+    }
+    std::fs::write(&csv, content).unwrap();
+    let options = Options {
+        system: Some(metriplectic::from_csv::SystemName::Linear2d),
+        ..quiet_options(&csv, &scratch("max_cell_out"))
+    };
+    let err = run(&options).unwrap_err().to_string();
+    println!("{err}");
+    assert!(err.contains("max_cell.csv"), "{err}");
+    assert!(err.contains("weak-form target"), "{err}");
+    assert!(!err.contains("--derivatives"), "{err}");
 }
 
 #[test]

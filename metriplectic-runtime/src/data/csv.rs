@@ -17,6 +17,12 @@ pub(crate) const TRAJECTORY_COLUMN: &str = "trajectory";
 /// Prefix of derivative columns: the derivative of `q` is `dq`.
 pub(crate) const DERIVATIVE_PREFIX: &str = "d";
 
+/// The largest CSV input [`read_trajectories`] and [`read_trajectories_from`]
+/// read: 4 GiB (about 10⁸ samples of a few states). An endless stream
+/// (`/dev/zero`, a runaway pipe) is refused with
+/// [`CsvError::TooLarge`] instead of exhausting memory.
+pub const MAX_CSV_BYTES: u64 = 1 << 32;
+
 /// Reads the trajectories of system `S` from a CSV file.
 ///
 /// # Format
@@ -65,8 +71,24 @@ pub fn read_trajectories<S: MetriplecticSystem>(path: impl AsRef<Path>) -> Resul
     })
 }
 
+/// All of `reader`, refused with [`CsvError::TooLarge`] beyond `limit` bytes.
+fn read_at_most(reader: &mut impl Read, limit: u64) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    reader
+        .take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|source| Error::Io {
+            path: "<reader>".into(),
+            source,
+        })?;
+    if bytes.len() as u64 > limit {
+        return Err(CsvError::TooLarge { limit }.into());
+    }
+    Ok(bytes)
+}
+
 /// Reads trajectories with state variables `names` (in state order) from CSV
-/// text.
+/// text (at most [`MAX_CSV_BYTES`]).
 ///
 /// ```
 /// use metriplectic_runtime::read_trajectories_from;
@@ -83,11 +105,7 @@ pub fn read_trajectories_from(mut reader: impl Read, names: &[&str]) -> Result<V
     // Read whole so that errors can name physical lines whatever the line
     // endings (the CSV parser counts only `\n` and reports a record after
     // blank lines at the first blank line).
-    let mut bytes = Vec::new();
-    reader.read_to_end(&mut bytes).map_err(|source| Error::Io {
-        path: "<reader>".into(),
-        source,
-    })?;
+    let bytes = read_at_most(&mut reader, MAX_CSV_BYTES)?;
     let lines = LineIndex::new(&bytes);
     let malformed = |error: csv::Error| malformed(&lines, error);
     let mut csv = csv::ReaderBuilder::new()
@@ -591,6 +609,20 @@ fn check_names(names: &[&str]) -> Result<()> {
             reason,
         });
     }
+    // The reader trims cells and reads a record per line: such a header
+    // would not read back (a probe wrote `""`, `" q"` and `"q\n"`).
+    if let Some(name) = names
+        .iter()
+        .find(|name| name.is_empty() || name.trim() != **name || name.contains(['\n', '\r']))
+    {
+        return Err(Error::InvalidArgument {
+            what: "state names".to_owned(),
+            reason: format!(
+                "{name:?} would not read back as a CSV column name: it is empty, begins or ends \
+                 with spaces, or holds a line break"
+            ),
+        });
+    }
     for name in names {
         let reserved_for = if *name == TIME_COLUMN {
             Some("the time".to_owned())
@@ -627,4 +659,39 @@ fn expected_columns(names: &[&str]) -> String {
             .join(", "),
         quoted(&derivatives)
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--data /dev/zero` ran out of memory: an endless reader is refused
+    /// at the limit (a small one here), and input at the limit is read.
+    #[test]
+    fn endless_input_is_refused_at_the_limit() {
+        let err = read_at_most(&mut std::io::repeat(b'0'), 1000).unwrap_err();
+        assert!(
+            matches!(err, Error::Csv(CsvError::TooLarge { limit: 1000 })),
+            "{err}"
+        );
+        assert!(err.to_string().contains("longer than 1000 bytes"), "{err}");
+        let bytes = read_at_most(&mut std::io::repeat(b'0').take(1000), 1000).unwrap();
+        assert_eq!(bytes.len(), 1000);
+    }
+
+    /// State names the reader would not read back are refused when writing.
+    #[test]
+    fn state_names_that_would_not_read_back_are_not_written() {
+        for name in ["", " q", "q\n"] {
+            let trajectory =
+                Trajectory::new(vec![name.to_owned()], vec![0.0, 1.0], vec![1.0, 2.0], None)
+                    .unwrap();
+            let mut out = Vec::new();
+            let err = write_trajectories_to(&mut out, &[trajectory])
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains("would not read back"), "{name:?}: {err}");
+            assert!(out.is_empty(), "{name:?}: something was written");
+        }
+    }
 }

@@ -11,6 +11,7 @@ mod weak;
 
 pub use csv::{
     read_trajectories, read_trajectories_from, write_trajectories, write_trajectories_to,
+    MAX_CSV_BYTES,
 };
 pub use dataset::Dataset;
 pub use derivative::{
