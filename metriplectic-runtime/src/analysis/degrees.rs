@@ -9,13 +9,13 @@ use super::refit::{preferred, refit};
 use crate::data::IdentificationData;
 use crate::error::{invalid, Result};
 use crate::identify::start::default_start_metric;
-use crate::identify::{Cost, IdentifyConfig, IdentifyWarning, SearchOptions, Support};
+use crate::identify::{Cost, IdentifyConfig, IdentifyWarning, SearchOptions, StopReason, Support};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
 /// Options of [`select_degrees`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct DegreeOptions {
     /// Entropy degrees tried. Default `None`: 1 to the declared degree.
     pub entropy: Option<Vec<u32>>,
@@ -50,6 +50,23 @@ pub struct DegreeCandidate {
     pub coefficients: usize,
     /// The identified model's cost on the validation data.
     pub validation: Cost,
+    /// Why its identification stopped.
+    pub stop_reason: StopReason,
+    /// Its identification's warnings, e.g. [`IdentifyWarning::FailedSolves`]
+    /// when its validation cost is a failed fit's rather than its degrees'.
+    pub warnings: Vec<IdentifyWarning>,
+}
+
+impl DegreeCandidate {
+    /// Whether its fit is in doubt: most solves of a subproblem failed, or
+    /// the run stopped on solver failures.
+    pub fn failed(&self) -> bool {
+        self.stop_reason == StopReason::SolverFailures
+            || self
+                .warnings
+                .iter()
+                .any(|w| matches!(w, IdentifyWarning::FailedSolves { .. }))
+    }
 }
 
 /// The result of [`select_degrees`].
@@ -69,7 +86,10 @@ pub struct DegreeSelection<S: MetriplecticSystem> {
     /// when ∇H is not constant. Empty for other systems.
     pub skipped_metric_degrees: Vec<u32>,
     /// The chosen refit's [`Identification::warnings`](crate::Identification::warnings):
-    /// what its training data cannot determine at the chosen degrees.
+    /// what its training data cannot determine at the chosen degrees; then
+    /// an [`IdentifyWarning::SimplerDegreesFailed`] for each candidate with
+    /// fewer coefficients that was passed over although its own fit
+    /// [`failed`](DegreeCandidate::failed).
     pub warnings: Vec<IdentifyWarning>,
 }
 
@@ -137,6 +157,8 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
                 metric_degree: s,
                 coefficients: key.0.len() + free_metric.len(),
                 validation: fit.validation,
+                stop_reason: fit.stop_reason,
+                warnings: fit.warnings.clone(),
             });
             seen.push(key);
             fits.push((fit.model, support, fit.warnings));
@@ -150,7 +172,8 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
         .map(|c| (c.coefficients, c.validation.sum))
         .collect();
     let chosen = preferred(&sizes, options.parsimony, floor).unwrap_or(0);
-    let (model, support, warnings) = fits.swap_remove(chosen);
+    let (model, support, mut warnings) = fits.swap_remove(chosen);
+    warnings.extend(simpler_failures(&candidates, chosen));
     Ok(DegreeSelection {
         model,
         support,
@@ -159,6 +182,25 @@ pub fn select_degrees<S: MetriplecticSystem, D: IdentificationData>(
         skipped_metric_degrees,
         warnings,
     })
+}
+
+/// A warning for each candidate simpler than `chosen` whose fit failed: it
+/// may have lost on the failure rather than on its degrees (a probe's
+/// degree-2 truth got metric degree 4 this way, the simpler refit having
+/// failed 15 of 29 metric solves).
+fn simpler_failures(candidates: &[DegreeCandidate], chosen: usize) -> Vec<IdentifyWarning> {
+    let Some(chosen) = candidates.get(chosen) else {
+        return Vec::new();
+    };
+    candidates
+        .iter()
+        .filter(|c| c.coefficients < chosen.coefficients && c.failed())
+        .map(|c| IdentifyWarning::SimplerDegreesFailed {
+            entropy_degree: c.entropy_degree,
+            metric_degree: c.metric_degree,
+            validation_cost: c.validation.per_component,
+        })
+        .collect()
 }
 
 /// The metric degrees of `wanted` whose caps hold a non-zero metric, and
@@ -205,4 +247,74 @@ fn classical_metric_degrees<S: MetriplecticSystem>(
         ));
     }
     Ok((kept, skipped))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::Subproblem;
+
+    fn candidate(
+        metric_degree: u32,
+        coefficients: usize,
+        stop_reason: StopReason,
+        warnings: Vec<IdentifyWarning>,
+    ) -> DegreeCandidate {
+        DegreeCandidate {
+            entropy_degree: 4,
+            metric_degree,
+            coefficients,
+            validation: Cost::from_sum(1.0, 10),
+            stop_reason,
+            warnings,
+        }
+    }
+
+    /// A misspelt field is an error naming it (a probe's `entropyy` was
+    /// dropped, and every degree tried).
+    #[test]
+    fn unknown_fields_in_degree_options_are_errors() {
+        for field in ["entropyy", "parsimonny"] {
+            let err = serde_json::from_str::<DegreeOptions>(&format!(r#"{{"{field}": [2]}}"#))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(&format!("unknown field `{field}`")), "{err}");
+        }
+        let options: DegreeOptions = serde_json::from_str(r#"{"entropy": [2]}"#).unwrap();
+        assert_eq!(options.entropy, Some(vec![2]));
+    }
+
+    /// Only simpler candidates whose fit failed are named; a failed
+    /// candidate with more coefficients, or a simpler one that fitted, is not.
+    #[test]
+    fn simpler_candidates_passed_over_on_failed_fits_are_named() {
+        let failed = IdentifyWarning::FailedSolves {
+            subproblem: Subproblem::MetricSearch,
+            failed: 15,
+            attempted: 29,
+        };
+        let candidates = [
+            candidate(0, 10, StopReason::Converged, Vec::new()),
+            candidate(2, 13, StopReason::Stagnated, vec![failed.clone()]),
+            candidate(4, 19, StopReason::Converged, Vec::new()),
+            candidate(6, 25, StopReason::SolverFailures, Vec::new()),
+        ];
+        let warnings = simpler_failures(&candidates, 2);
+        assert_eq!(
+            warnings,
+            [IdentifyWarning::SimplerDegreesFailed {
+                entropy_degree: 4,
+                metric_degree: 2,
+                validation_cost: 0.1,
+            }]
+        );
+        assert!(warnings[0].to_string().contains("metric degree 2"));
+        assert!(simpler_failures(&candidates, 0).is_empty());
+        assert_eq!(simpler_failures(&candidates, 3).len(), 1);
+        let stopped = [
+            candidate(0, 10, StopReason::SolverFailures, Vec::new()),
+            candidate(2, 13, StopReason::Converged, Vec::new()),
+        ];
+        assert_eq!(simpler_failures(&stopped, 1).len(), 1);
+    }
 }

@@ -3,7 +3,9 @@
 
 use crate::data::IdentificationData;
 use crate::error::Result;
-use crate::identify::{identify, model_cost, Cost, IdentifyConfig, IdentifyWarning, Support};
+use crate::identify::{
+    identify, model_cost, Cost, IdentifyConfig, IdentifyWarning, StopReason, Support,
+};
 use crate::model::{check_entropy, Model};
 use crate::system::MetriplecticSystem;
 
@@ -13,6 +15,8 @@ pub(crate) struct Refit<S: MetriplecticSystem> {
     pub validation: Cost,
     /// The identification's warnings.
     pub warnings: Vec<IdentifyWarning>,
+    /// Why the identification stopped.
+    pub stop_reason: StopReason,
 }
 
 /// Identifies on `train` with `config` restricted to `support` (joined with
@@ -71,6 +75,7 @@ pub(crate) fn refit<S: MetriplecticSystem>(
         model: fit.model,
         validation,
         warnings: fit.warnings,
+        stop_reason: fit.stop_reason,
     })
 }
 

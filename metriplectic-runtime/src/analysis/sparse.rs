@@ -13,7 +13,7 @@ use super::refit::{preferred, refit};
 use crate::data::IdentificationData;
 use crate::error::{invalid, Num, Result};
 use crate::identify::search::entropy_regression;
-use crate::identify::{model_cost, Cost, IdentifyConfig, Support};
+use crate::identify::{model_cost, Cost, IdentifyConfig, IdentifyWarning, Support};
 use crate::model::Model;
 use crate::system::MetriplecticSystem;
 
@@ -48,6 +48,9 @@ pub struct SparseCandidate {
     pub terms: Vec<usize>,
     /// The refitted model's cost on the validation data.
     pub validation: Cost,
+    /// The refit's [`Identification::warnings`](crate::Identification::warnings)
+    /// (empty for the dense fit, whose own run gave its warnings).
+    pub warnings: Vec<IdentifyWarning>,
 }
 
 /// The result of [`sparsify`].
@@ -61,6 +64,9 @@ pub struct Sparsification<S: MetriplecticSystem> {
     pub chosen: usize,
     /// Every candidate, the dense fit first, then by increasing threshold.
     pub candidates: Vec<SparseCandidate>,
+    /// The chosen candidate's warnings: what its training data cannot
+    /// determine on the chosen support (empty when the dense fit is chosen).
+    pub warnings: Vec<IdentifyWarning>,
 }
 
 /// Thresholds the entropy terms of `dense` (identified on `train` with
@@ -116,6 +122,7 @@ pub fn sparsify<S: MetriplecticSystem, D: IdentificationData>(
         threshold: None,
         terms: dense_terms.clone(),
         validation: model_cost(dense, validation)?,
+        warnings: Vec::new(),
     }];
     let mut models = vec![(dense.clone(), base.clone())];
     let mut thresholds = options.thresholds.clone();
@@ -140,6 +147,7 @@ pub fn sparsify<S: MetriplecticSystem, D: IdentificationData>(
             threshold: Some(threshold),
             terms,
             validation: fit.validation,
+            warnings: fit.warnings,
         });
         models.push((fit.model, support));
     }
@@ -149,11 +157,13 @@ pub fn sparsify<S: MetriplecticSystem, D: IdentificationData>(
         .collect();
     let chosen = preferred(&sizes, options.parsimony, 0.0).unwrap_or(0);
     let (model, support) = models.swap_remove(chosen);
+    let warnings = candidates[chosen].warnings.clone();
     Ok(Sparsification {
         model,
         support,
         chosen,
         candidates,
+        warnings,
     })
 }
 

@@ -238,6 +238,20 @@ pub enum IdentifyWarning {
         /// Solves attempted (skipped ones not counted).
         attempted: usize,
     },
+    /// [`select_degrees`](crate::select_degrees) passed over simpler
+    /// degree caps whose own identification
+    /// [`failed`](crate::DegreeCandidate::failed) (most solves of a
+    /// subproblem failed, or it stopped on solver failures): their
+    /// validation cost may be the failed fit's rather than the degrees',
+    /// so the data may need fewer degrees than chosen.
+    SimplerDegreesFailed {
+        /// The candidate's entropy degree cap.
+        entropy_degree: u32,
+        /// The candidate's metric degree cap.
+        metric_degree: u32,
+        /// Its validation cost per component.
+        validation_cost: f64,
+    },
 }
 
 /// One of an iteration's convex subproblems.
@@ -377,6 +391,18 @@ impl std::fmt::Display for IdentifyWarning {
                  region far from the origin (rescale or centre the state variables), or \
                  coefficients many orders apart, as of a fast and a slow mode (start from the \
                  default entropy, or try SolverBackend::Clarabel, cargo feature `clarabel`)"
+            ),
+            Self::SimplerDegreesFailed {
+                entropy_degree,
+                metric_degree,
+                validation_cost,
+            } => write!(
+                f,
+                "the simpler entropy degree {entropy_degree} with metric degree {metric_degree} \
+                 was passed over, but its own fit failed (validation cost per component \
+                 {validation_cost:.3e}; its candidate's warnings say how): the data may need \
+                 fewer degrees than chosen; refit at those caps with other settings (e.g. \
+                 SolverBackend::Clarabel) to compare"
             ),
             Self::StillImproving {
                 cost,
