@@ -273,13 +273,21 @@ fn abbreviate(text: &str, limit: usize) -> std::borrow::Cow<'_, str> {
 /// ‖∇H‖ + ‖∇S‖, as when S = −H fits states at rest), the metric's columns,
 /// K(x; ·)∇E, are rounding: they are read at that size, and the metric is
 /// reported undetermined. Errors on a dataset of the wrong dimension, a
-/// support or gauge that does not fit `S`, or a failed singular value
+/// support or gauge that does not fit `S`, a model that does not meet the
+/// options' gauge (to 1e-6 of its value), or a failed singular value
 /// decomposition.
 pub fn identifiability<S: MetriplecticSystem>(
     model: &Model<S>,
     data: &impl IdentificationData,
     options: &IdentifiabilityOptions,
 ) -> Result<Identifiability> {
+    // The report reads the gauge as fixing the model's scale: a model off
+    // its gauge is not the one the gauge picks (a probe's tr K(0) = 3
+    // under a gauge of 1 was reported "fixed by the gauge").
+    if let Some(gauge) = options.search.gauge {
+        gauge.validate()?;
+        gauge.check_model::<S>("model's metric coefficients", model.metric_coefficients())?;
+    }
     let jacobian = ScaledJacobian::new(model, data, options)?;
     report(&jacobian, model, data, options)
 }

@@ -271,6 +271,28 @@ impl Gauge {
         self.row::<S>().0.iter().map(|&(t, w)| w * theta[t]).sum()
     }
 
+    /// Errors unless metric coefficients `theta` meet the gauge to 1e-6 of
+    /// its value (searches hold it to the solver's tolerance); `what`
+    /// names them in the error.
+    pub(crate) fn check_model<S: MetriplecticSystem>(
+        self,
+        what: &str,
+        theta: &[f64],
+    ) -> Result<()> {
+        let (value, wanted) = (self.value_at::<S>(theta), self.row::<S>().1);
+        if (value - wanted).abs() > 1e-6 * wanted {
+            return Err(invalid(
+                what,
+                format!(
+                    "the gauge fixes tr K(0) = {}, they give {}",
+                    Num(wanted),
+                    Num(value)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Errors unless the value is finite and positive (a metric with
     /// tr K(0) ≤ 0 is zero at the origin).
     pub fn validate(self) -> Result<()> {
