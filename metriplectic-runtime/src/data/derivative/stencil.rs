@@ -17,11 +17,28 @@ pub(super) fn stencil(
     let width = method.width().unwrap_or(times.len());
     // Centre on i, then slide inwards at the ends to keep the width (and the order).
     let start = i.saturating_sub(width / 2).min(times.len() - width);
-    let window = &times[start..start + width];
+    let last = start + width - 1;
+    // The weights are formed in u = (t − tᵢ)/scale ∈ [−1, 1] and divided by
+    // the scale at the end: in raw times, products of differences
+    // overflowed to ∞ at spacings near 1e51–1e155 and left weights of 0 or
+    // of the wrong sign, and the Savitzky–Golay SVD panicked on NaN.
+    let offsets: Vec<f64> = times[start..=last].iter().map(|t| t - times[i]).collect();
+    let scale = offsets.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+    if !scale.is_finite() {
+        return Err(invalid(
+            "time span",
+            format!(
+                "samples {start}..={last} (t = {:e} … {:e}) span more than floating point \
+                 holds (their differences overflow); rescale the times",
+                times[start], times[last]
+            ),
+        ));
+    }
+    let unit: Vec<f64> = offsets.iter().map(|d| d / scale).collect();
     let weights = match *method {
-        DerivativeMethod::FiniteDifference { .. } => fornberg_first_derivative(times[i], window),
+        DerivativeMethod::FiniteDifference { .. } => fornberg_first_derivative(0.0, &unit),
         DerivativeMethod::SavitzkyGolay { degree, .. } => {
-            least_squares_first_derivative(times[i], window, degree)?
+            least_squares_first_derivative(&unit, degree)?
         }
         DerivativeMethod::SmoothingSpline { .. } => {
             return Err(invalid(
@@ -30,10 +47,11 @@ pub(super) fn stencil(
             ))
         }
     };
+    let weights: Vec<f64> = weights.iter().map(|w| w / scale).collect();
     if weights.iter().any(|w| !w.is_finite()) {
         // The weights scale like 1/spacing: a spacing near zero (or spread
         // over many orders of magnitude) overflows them.
-        return Err(spacing_error(times, start, start + width - 1));
+        return Err(spacing_error(times, start, last));
     }
     Ok((start, weights))
 }
@@ -92,20 +110,17 @@ fn fornberg_first_derivative(z: f64, points: &[f64]) -> Vec<f64> {
     c.iter().map(|w| w[1]).collect()
 }
 
-/// Weights of the derivative at `z` of the least-squares polynomial of
-/// `degree` through the samples at `points`.
-fn least_squares_first_derivative(z: f64, points: &[f64], degree: usize) -> Result<Vec<f64>> {
-    // Scale the abscissae to [-1, 1] so the Vandermonde matrix stays well conditioned.
-    let scale = points.iter().map(|t| (t - z).abs()).fold(0.0, f64::max);
-    let vandermonde = DMatrix::from_fn(points.len(), degree + 1, |r, c| {
-        ((points[r] - z) / scale).powi(c as i32)
-    });
+/// Weights of the derivative at 0 of the least-squares polynomial of
+/// `degree` through the samples at `points` (in [−1, 1], so that the
+/// Vandermonde matrix stays well conditioned).
+fn least_squares_first_derivative(points: &[f64], degree: usize) -> Result<Vec<f64>> {
+    let vandermonde = DMatrix::from_fn(points.len(), degree + 1, |r, c| points[r].powi(c as i32));
     let pinv = vandermonde
         .svd(true, true)
         .pseudo_inverse(1e-12)
         .map_err(|reason| invalid("Savitzky–Golay fit", reason.to_owned()))?;
-    // p(u) = Σ cₖ uᵏ with u = (t − z)/scale, so p'(z) = c₁ / scale.
-    Ok(pinv.row(1).iter().map(|w| w / scale).collect())
+    // p(u) = Σ cₖ uᵏ, so p'(0) = c₁.
+    Ok(pinv.row(1).iter().copied().collect())
 }
 
 #[cfg(test)]
@@ -159,6 +174,50 @@ mod tests {
                 (d - exact).abs() < 1e-9 * (1.0 + exact.abs()),
                 "{d} vs {exact}"
             );
+        }
+    }
+
+    /// A probe's FD2 at spacing 1e155 came back with the wrong sign, FD6 at
+    /// 2e51 off by 130%, and Savitzky–Golay on times near ±f64::MAX
+    /// panicked in the SVD: the weights are now formed on [−1, 1].
+    #[test]
+    fn huge_time_spacings_give_the_same_estimates_in_their_units() {
+        let methods = [
+            DerivativeMethod::FiniteDifference { order: 2 },
+            DerivativeMethod::FiniteDifference { order: 6 },
+            DerivativeMethod::SavitzkyGolay {
+                window: 7,
+                degree: 3,
+            },
+        ];
+        let unit: Vec<f64> = (0..20).map(|k| k as f64).collect();
+        let x: Vec<f64> = (0..20).map(|k| (0.3 * k as f64).sin()).collect();
+        for method in &methods {
+            let reference = differentiate(&unit, &x, method).unwrap();
+            for h in [2e51, 1e78, 1e155, 1e200, 1e-200] {
+                let t: Vec<f64> = unit.iter().map(|k| k * h).collect();
+                let dx = differentiate(&t, &x, method).unwrap();
+                for (d, r) in dx.iter().zip(&reference) {
+                    assert!(
+                        (d * h - r).abs() <= 1e-9 * (1.0 + r.abs()),
+                        "{method:?}, h = {h:e}: {} vs {r}",
+                        d * h
+                    );
+                }
+            }
+        }
+        let t = [-1.7e308, 0.0, 1.7e308, 1.79e308];
+        for method in [
+            DerivativeMethod::SavitzkyGolay {
+                window: 3,
+                degree: 1,
+            },
+            DerivativeMethod::FiniteDifference { order: 2 },
+        ] {
+            let err = differentiate(&t, &[0.0, 1.0, 2.0, 3.0], &method)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains("span more than floating point holds"), "{err}");
         }
     }
 }
