@@ -303,3 +303,104 @@ fn a_metric_negative_in_a_narrow_band_is_refused_there() {
     );
     Model::<MillimetresOnRegion>::new(entropy, band(0.0)).unwrap();
 }
+
+metriplectic! {
+    /// One state, a metric of degree 2, no region: K ⪰ 0 for every q.
+    pub struct OneStateMetric;
+    state (q);
+    poisson = [[0]];
+    hamiltonian = 0.5 * q^2;
+    entropy degree 2;
+    metric degree 2;
+}
+
+metriplectic! {
+    /// Two states, a metric of degree 2, no region.
+    pub struct TwoStateMetric;
+    state (q, p);
+    poisson = [[0, 1], [-1, 0]];
+    hamiltonian = 0.5 * p^2 + 0.5 * q^2;
+    entropy degree 2;
+    metric degree 2;
+}
+
+/// θ of `S` with the given terms (entry (j, k), exponents, coefficient).
+fn metric_terms<S: MetriplecticSystem>(terms: &[((usize, usize), &[u32], f64)]) -> Vec<f64> {
+    let basis = S::METRIC_EXPONENTS.len();
+    let mut theta = vec![0.0; S::metric_coefficient_count()];
+    for &((j, k), exponents, c) in terms {
+        let alpha = S::METRIC_EXPONENTS
+            .iter()
+            .position(|e| *e == exponents)
+            .unwrap();
+        theta[metric_pair_index(S::DIM, j, k) * basis + alpha] = c;
+    }
+    theta
+}
+
+/// Two holes a probe found in the certificate's tolerance, each with
+/// E falling at O(1) × |∇E|² at a state:
+/// * K = (q − 1000)² − δ without a region: its shift is 1e-12 of its
+///   largest coefficient for δ = 1 (2e-9 for δ = 2000), within tolerance,
+///   and the witnesses' thresholds, relative to that coefficient times
+///   ‖Z(x)‖², were 1e3 at q = 1000. Built, saved and loaded for δ up to
+///   2000; K(1000) = −δ.
+/// * K = [[a q², 1], [1, d]] with a = 1e15: balancing the axes by their
+///   coefficients' sizes made the unit coupling rounding against 1e15,
+///   but at q = 0 K = [[0, 1], [1, d]] has eigenvalue ≈ −1.
+///
+/// The tight metrics, (q − 1000)² and [[a q², 0], [0, d]], still pass.
+#[test]
+fn metrics_negative_where_large_terms_cancel_or_vanish_are_refused_there() {
+    let entropy = vec![0.0; OneStateMetric::entropy_coefficient_count()];
+    for delta in [1.0, 2000.0] {
+        let theta = metric_terms::<OneStateMetric>(&[
+            ((0, 0), &[0], 1e6 - delta),
+            ((0, 0), &[1], -2000.0),
+            ((0, 0), &[2], 1.0),
+        ]);
+        let error = Model::<OneStateMetric>::new(entropy.clone(), theta.clone()).unwrap_err();
+        let Error::MetricNotPositive {
+            state: Some(state), ..
+        } = &error
+        else {
+            panic!("δ = {delta}: {error}");
+        };
+        let mut k = [0.0];
+        OneStateMetric::metric_value(state, &theta, &mut k);
+        assert!(
+            k[0] < -0.5 * delta.min(1.0),
+            "δ = {delta}: K = {k:?} at {state:?}"
+        );
+    }
+    let tight = metric_terms::<OneStateMetric>(&[
+        ((0, 0), &[0], 1e6),
+        ((0, 0), &[1], -2000.0),
+        ((0, 0), &[2], 1.0),
+    ]);
+    Model::<OneStateMetric>::new(entropy, tight).unwrap();
+
+    let entropy = vec![0.0; TwoStateMetric::entropy_coefficient_count()];
+    for (a, c, d) in [(1e15, 1.0, 1e-3), (1e9, 1.0, 1.0), (1e12, 1e-3, 1e-6)] {
+        let theta = metric_terms::<TwoStateMetric>(&[
+            ((0, 0), &[2, 0], a),
+            ((0, 1), &[0, 0], c),
+            ((1, 1), &[0, 0], d),
+        ]);
+        let error = Model::<TwoStateMetric>::new(entropy.clone(), theta.clone()).unwrap_err();
+        let Error::MetricNotPositive {
+            eigenvalue,
+            state: Some(state),
+            ..
+        } = &error
+        else {
+            panic!("a = {a}: {error}");
+        };
+        // Negative near q = 0, where a q² is below c²/d.
+        assert!(a * state[0] * state[0] < c * c / d, "a = {a}: {error}");
+        assert!(*eigenvalue < -0.1 * c * c / (c + d), "a = {a}: {error}");
+    }
+    let decoupled =
+        metric_terms::<TwoStateMetric>(&[((0, 0), &[2, 0], 1e15), ((1, 1), &[0, 0], 1e-3)]);
+    Model::<TwoStateMetric>::new(entropy, decoupled).unwrap();
+}

@@ -123,30 +123,43 @@ fn check_everywhere<S: MetriplecticSystem>(what: &str, theta: &[f64]) -> Result<
         if is_constant::<S>(theta, &block) {
             check_constant_block::<S>(what, theta, &block)?;
         } else if let Some(balanced) = Balanced::of::<S>(theta, &block, false) {
-            check_state_dependent_block::<S>(what, &balanced.theta, &block)
+            check_state_dependent_block::<S>(what, (&balanced.theta, theta), &block)
                 .map_err(|error| balanced.restore::<S>(theta, &block, error))?;
         } else {
-            check_state_dependent_block::<S>(what, theta, &block)?;
+            check_state_dependent_block::<S>(what, (theta, theta), &block)?;
         }
     }
     Ok(())
 }
 
-/// K(x) ⪰ 0 for every x on one block whose entries are not all constant.
+/// K(x) ⪰ 0 for every x on one block whose entries are not all constant:
+/// certified on `theta` (K's own θ or its [`Balanced`] form), and judged
+/// at states on K's own θ, `own` (balancing amplifies a zero row's
+/// rounding-level coupling beyond [`EVALUATION_TOLERANCE`]).
 fn check_state_dependent_block<S: MetriplecticSystem>(
     what: &str,
-    theta: &[f64],
+    (theta, own): (&[f64], &[f64]),
     block: &[usize],
 ) -> Result<()> {
     let scale = block_scale::<S>(theta, block);
-    let shift = match certify_block::<S>(theta, block, scale) {
+    let Certification {
+        shift, suspects, ..
+    } = certify_block::<S>(theta, block, scale);
+    // Where the Gram matrix points first: cheap, and where the metric is
+    // lowest against the certificate's unit.
+    let at_suspects = || {
+        descent_witness::<S>(what, own, block, None, suspects.clone())
+            .or_else(|| far_witness::<S>(what, own, block))
+    };
+    let shift = match shift {
         Ok(shift) => shift,
         // A state that shows it, near the origin or far out.
         Err(reason) => {
-            return Err(witness::<S>(what, theta, block, scale)
+            return Err(at_suspects()
+                .or_else(|| witness::<S>(what, theta, block, scale))
                 .or_else(|| vertex_witness::<S>(what, theta, block, scale))
                 .or_else(|| ray_witness::<S>(what, theta, block, scale))
-                .or_else(|| descent_witness::<S>(what, theta, block, None))
+                .or_else(|| descent_witness::<S>(what, own, block, None, descent_starts::<S>()))
                 .unwrap_or(Error::MetricNotCertified {
                     what: what.to_owned(),
                     reason,
@@ -154,16 +167,18 @@ fn check_state_dependent_block<S: MetriplecticSystem>(
         }
     };
     // The certificate's tolerance allows K(x) ⪰ −s‖Z(x)‖²I, which far out
-    // can exceed K itself, and in a narrow band anywhere: a state where it
-    // does is refused. A shift of at most `DESCENT_SHIFT` bounds K below
-    // by that fraction of the descent's unit, so no state can pass its
-    // threshold, and the descent (a third of the drag examples' time) is
-    // left out: searched metrics sit at shifts near 1e-12.
-    match vertex_witness::<S>(what, theta, block, scale)
+    // can exceed K itself, where K's terms cancel (K = (q − 1000)² − 1 has
+    // a shift of 1e-12 of its largest coefficient), and in a narrow band
+    // anywhere: a state where it does is refused. The Gram matrix's own
+    // suspects are always tried; the seeded descent (a third of the drag
+    // examples' time) only above `DESCENT_SHIFT`: searched metrics sit at
+    // shifts near 1e-12.
+    match at_suspects()
+        .or_else(|| vertex_witness::<S>(what, theta, block, scale))
         .or_else(|| ray_witness::<S>(what, theta, block, scale))
         .or_else(|| {
             (shift > DESCENT_SHIFT)
-                .then(|| descent_witness::<S>(what, theta, block, None))
+                .then(|| descent_witness::<S>(what, own, block, None, descent_starts::<S>()))
                 .flatten()
         }) {
         Some(error) => Err(error),
@@ -282,12 +297,7 @@ impl Balanced {
         let mut metric = vec![0.0; n * n];
         S::metric_value(&x, theta, &mut metric);
         let (eigenvalue, local) = lowest_along(block_matrix(&metric, n, block), v);
-        Error::MetricNotPositive {
-            what,
-            eigenvalue,
-            direction: embed(n, block, &local),
-            state: Some(x),
-        }
+        not_positive(&what, eigenvalue, (n, block, &local), Some(x))
     }
 }
 
@@ -401,6 +411,22 @@ fn block_matrix(metric: &[f64], n: usize, block: &[usize]) -> DMatrix<f64> {
     })
 }
 
+/// K(`state`) (K₀ with `None`) has `eigenvalue` < 0 along `local`, a
+/// direction within `block` of an n-state system.
+fn not_positive(
+    what: &str,
+    eigenvalue: f64,
+    (n, block, local): (usize, &[usize], &[f64]),
+    state: Option<Vec<f64>>,
+) -> Error {
+    Error::MetricNotPositive {
+        what: what.to_owned(),
+        eigenvalue,
+        direction: embed(n, block, local),
+        state,
+    }
+}
+
 /// The block's eigenvector as a full n-vector.
 fn embed(n: usize, block: &[usize], local: &[f64]) -> Vec<f64> {
     let mut full = vec![0.0; n];
@@ -441,12 +467,12 @@ fn check_constant_block<S: MetriplecticSystem>(
     {
         let mut direction = vec![0.0; size];
         direction[i] = 1.0;
-        return Err(Error::MetricNotPositive {
-            what: what.to_owned(),
-            eigenvalue: k0[(i, i)],
-            direction: embed(S::DIM, block, &direction),
-            state: None,
-        });
+        return Err(not_positive(
+            what,
+            k0[(i, i)],
+            (S::DIM, block, &direction),
+            None,
+        ));
     }
     let (eigenvalue, _) = smallest_eigen(k0.clone());
     if eigenvalue >= -ROUNDING_TOLERANCE * size as f64 * spread {
@@ -462,12 +488,12 @@ fn check_constant_block<S: MetriplecticSystem>(
         // The scaled direction taken back, D^-½ u.
         let v: Vec<f64> = u.iter().zip(&root).map(|(u, r)| u / r).collect();
         let (eigenvalue, direction) = lowest_along(k0, v);
-        return Err(Error::MetricNotPositive {
-            what: what.to_owned(),
+        return Err(not_positive(
+            what,
             eigenvalue,
-            direction: embed(S::DIM, block, &direction),
-            state: None,
-        });
+            (S::DIM, block, &direction),
+            None,
+        ));
     }
     Ok(())
 }
@@ -477,16 +503,34 @@ fn certify_block<S: MetriplecticSystem>(
     theta: &[f64],
     block: &[usize],
     scale: f64,
-) -> std::result::Result<f64, String> {
+) -> Certification {
     // In y = x − c for a region far from the origin, as the searches'
     // certificates (`Layout`): K(x) ⪰ 0 for every x exactly when
     // K(c + y) ⪰ 0 for every y.
     let (centre, rho) = region_coordinates::<S>();
-    let (theta, rho): (&[f64], Vec<f64>) =
-        match centre.and_then(|c| Shift::new(S::METRIC_EXPONENTS, c)) {
-            Some(shift) => (&shift.to_centred(theta), rho),
-            None => (theta, state_scale::<S>()),
-        };
+    let shift = centre
+        .as_ref()
+        .and_then(|c| Shift::new(S::METRIC_EXPONENTS, c.clone()));
+    let (theta, rho): (&[f64], Vec<f64>) = match &shift {
+        Some(shift) => (&shift.to_centred(theta), rho),
+        None => (theta, state_scale::<S>()),
+    };
+    let mut certification = certify_block_centred::<S>(theta, block, scale, &rho);
+    if let Some(c) = centre.filter(|_| shift.is_some()) {
+        for y in &mut certification.suspects {
+            y.iter_mut().zip(&c).for_each(|(y, c)| *y += c);
+        }
+    }
+    certification
+}
+
+/// [`certify_block`] on θ in the certificate's coordinates.
+fn certify_block_centred<S: MetriplecticSystem>(
+    theta: &[f64],
+    block: &[usize],
+    scale: f64,
+    rho: &[f64],
+) -> Certification {
     let exponents = S::METRIC_EXPONENTS;
     let degree_of = |e: &[u32]| e.iter().sum::<u32>();
     // The variables and the degree the block's entries use.
@@ -501,10 +545,14 @@ fn certify_block<S: MetriplecticSystem>(
         }
     }
     if degree % 2 == 1 {
-        return Err(format!(
-            "an entry has odd degree {degree}, and a matrix polynomial of odd degree cannot be \
-             positive semidefinite everywhere"
-        ));
+        return Certification {
+            shift: Err(format!(
+                "an entry has odd degree {degree}, and a matrix polynomial of odd degree cannot \
+                 be positive semidefinite everywhere"
+            )),
+            suspects: Vec::new(),
+            conclusive: true,
+        };
     }
     let half: Vec<&[u32]> = exponents
         .iter()
@@ -520,12 +568,99 @@ fn certify_block<S: MetriplecticSystem>(
         .flat_map(|a| (0..half.len()).map(move |beta| (a, beta)))
         .collect();
     let reduced = consistent_rows::<S>(theta, block, &half);
+    let mut suspects = Vec::new();
     if reduced.len() < all.len() {
-        if let Ok(shift) = certify_on_rows::<S>(theta, block, &half, &reduced, &rho, scale) {
-            return Ok(shift);
+        let on_reduced = certify_on_rows::<S>(theta, block, &half, &reduced, rho, scale);
+        // A term beyond rounding that only dropped rows could produce: no
+        // Gram matrix is PSD, and all rows would allow it the tolerance
+        // (1 + a⁶b² + 1e-3·a, negative for a < −1000, passed that way).
+        if on_reduced.shift.is_ok() || on_reduced.conclusive {
+            return on_reduced;
+        }
+        suspects = on_reduced.suspects;
+    }
+    let mut on_all = certify_on_rows::<S>(theta, block, &half, &all, rho, scale);
+    on_all.suspects.extend(suspects);
+    on_all
+}
+
+/// What a block's certificate program found.
+struct Certification {
+    /// `Ok` with the optimal shift relative to the block's scaled size if
+    /// it is within tolerance, else why not.
+    shift: std::result::Result<f64, String>,
+    /// States (in the certificate's coordinates y = x − c) where K is
+    /// lowest relative to the certificate's unit, read off its Gram matrix
+    /// ([`gram_suspects`]).
+    suspects: Vec<Vec<f64>>,
+    /// Whether the refusal holds with no tolerance: a term beyond the
+    /// searches' rounding that no pair of the Gram rows can produce.
+    conclusive: bool,
+}
+
+/// A term no kept Gram row produces, up to this fraction of a block's
+/// scaled size, is allowed the certificate's tolerance on all rows: a
+/// pair of rows whose diagonal must vanish produces a term c only with a
+/// shift of about c², so up to √`CERTIFICATE_TOLERANCE` it is within the
+/// tolerance anyway (a zero row coupled at the searches' rounding, 1e-9
+/// of the scale, stays acceptable). Beyond it the refusal is final.
+const SEARCH_ROUNDING: f64 = 1e-4;
+
+/// Eigenvectors of a Gram matrix taken as suspects: at most this many, the
+/// lowest.
+const GRAM_SUSPECT_VECTORS: usize = 4;
+
+/// The states a block's Gram matrix Q′ (over `gram_rows`, in u = y/ρ)
+/// points at. At the program's optimum Q′ + sI is singular, and where the
+/// metric is lowest against the certificate's unit, at y*, its null space
+/// holds Z(u*) ⊗ w for K's lowest direction w (complementary slackness
+/// with a moment matrix of one point). So each of Q′'s lowest eigenvectors
+/// v is read as such a vector: u*ᵢ = v(a, eᵢ) / v(a, 0) on a block row a,
+/// and yᵢ = ρᵢ u*ᵢ. A probe's K = (q − 1000)² − 1, certified within the
+/// tolerance (its shift is 1e-12 of its largest coefficient, 1e6), is
+/// found at q = 1000 this way, where no fixed or seeded state falls.
+fn gram_suspects(
+    gram: &DMatrix<f64>,
+    rows: usize,
+    half: &[&[u32]],
+    gram_rows: &[(usize, usize)],
+    rho: &[f64],
+) -> Vec<Vec<f64>> {
+    let Some((_, vectors)) = symmetric_eigen(gram) else {
+        return Vec::new();
+    };
+    let n = rho.len();
+    let constant = half.iter().position(|e| e.iter().all(|&p| p == 0));
+    let linear: Vec<Option<usize>> = (0..n)
+        .map(|i| {
+            half.iter()
+                .position(|e| e.iter().enumerate().all(|(v, &p)| p == u32::from(v == i)))
+        })
+        .collect();
+    let position = |a: usize, beta: usize| gram_rows.iter().position(|&r| r == (a, beta));
+    let mut suspects: Vec<Vec<f64>> = Vec::new();
+    for v in vectors.column_iter().take(GRAM_SUSPECT_VECTORS) {
+        let norm = v.norm();
+        for a in 0..rows {
+            let Some(zero) = constant.and_then(|beta| position(a, beta)) else {
+                continue;
+            };
+            if !(v[zero].abs() > 1e-8 * norm) {
+                continue;
+            }
+            let y: Vec<f64> = (0..n)
+                .map(|i| {
+                    linear[i]
+                        .and_then(|beta| position(a, beta))
+                        .map_or(0.0, |p| rho[i] * v[p] / v[zero])
+                })
+                .collect();
+            if y.iter().all(|c| c.is_finite()) && !suspects.contains(&y) {
+                suspects.push(y);
+            }
         }
     }
-    certify_on_rows::<S>(theta, block, &half, &all, &rho, scale)
+    suspects
 }
 
 /// min |s| s.t. T(Q) = θ_C, Q + s·I ⪰ 0 for a block's certificate with Q
@@ -540,6 +675,33 @@ fn certify_on_rows<S: MetriplecticSystem>(
     gram_rows: &[(usize, usize)],
     rho: &[f64],
     scale: f64,
+) -> Certification {
+    let (mut suspects, mut conclusive) = (Vec::new(), false);
+    let shift = certify_on_rows_into::<S>(
+        theta,
+        block,
+        (half, gram_rows),
+        rho,
+        scale,
+        (&mut suspects, &mut conclusive),
+    );
+    Certification {
+        shift,
+        suspects,
+        conclusive,
+    }
+}
+
+/// [`certify_on_rows`], pushing the states its Gram matrix points at
+/// ([`gram_suspects`], in the certificate's y = x − c) onto `suspects` and
+/// setting `conclusive` where [`Certification::conclusive`] holds.
+fn certify_on_rows_into<S: MetriplecticSystem>(
+    theta: &[f64],
+    block: &[usize],
+    (half, gram_rows): (&[&[u32]], &[(usize, usize)]),
+    rho: &[f64],
+    scale: f64,
+    (suspects, conclusive): (&mut Vec<Vec<f64>>, &mut bool),
 ) -> std::result::Result<f64, String> {
     let exponents = S::METRIC_EXPONENTS;
     let size = gram_rows.len();
@@ -619,6 +781,7 @@ fn certify_on_rows<S: MetriplecticSystem>(
     entries.iter().for_each(|&(row, _, _)| reached[row] = true);
     if let Some(row) = (0..rhs.len()).find(|&row| rhs[row] != 0.0 && !reached[row]) {
         let (_, _, j, k) = pairs[row / basis];
+        *conclusive = rhs[row].abs() > SEARCH_ROUNDING;
         return Err(format!(
             "K[{j}][{k}] has a term of exponents {:?} that no sum of squares with these \
              diagonal entries can have",
@@ -641,9 +804,11 @@ fn certify_on_rows<S: MetriplecticSystem>(
     }
     let solution = solve_l1(&problem, &certificate_settings())
         .map_err(|error| format!("the certificate program failed: {error}"))?;
+    let gram = smat(size, &solution.variables()[1..]);
+    suspects.extend(gram_suspects(&gram, block.len(), half, gram_rows, &rho));
     let s = solution.coefficients()[0] * scale;
     let verified = solution.status == SolveStatus::Solved
-        || verify(&matching, &[(1, size)], solution.coefficients());
+        || verify(&matching, &[(1, size)], solution.variables());
     if solution.status.is_usable() && verified && s <= CERTIFICATE_TOLERANCE * scale {
         Ok(solution.coefficients()[0])
     } else {
@@ -754,11 +919,8 @@ fn witness<S: MetriplecticSystem>(
             break;
         }
     }
-    worst.map(|(eigenvalue, direction, x)| Error::MetricNotPositive {
-        what: what.to_owned(),
-        eigenvalue,
-        direction: embed(n, block, &direction),
-        state: Some(x),
+    worst.map(|(eigenvalue, direction, x)| {
+        not_positive(what, eigenvalue, (n, block, &direction), Some(x))
     })
 }
 
@@ -891,12 +1053,12 @@ fn vertex_witness<S: MetriplecticSystem>(
                     .sum();
                 if value.is_finite() && size.is_finite() && value < -1e-9 * size {
                     let (eigenvalue, direction) = smallest_eigen(block_matrix(&metric, n, block));
-                    return Some(Error::MetricNotPositive {
-                        what: what.to_owned(),
+                    return Some(not_positive(
+                        what,
                         eigenvalue,
-                        direction: embed(n, block, &direction),
-                        state: Some(x),
-                    });
+                        (n, block, &direction),
+                        Some(x),
+                    ));
                 }
             }
         }
@@ -951,55 +1113,35 @@ fn ray_witness<S: MetriplecticSystem>(
         .copied()
         .filter(|e| 2 * e.iter().sum::<u32>() <= degree)
         .collect();
-    let mut rng = ChaCha8Rng::seed_from_u64(0x4a75);
-    let mut directions = axes_and_diagonals(n);
-    for _ in 0..RAY_DIRECTIONS {
-        directions.push((0..n).map(|_| rng.random_range(-1.0..1.0)).collect());
-    }
-    let largest_radius = 10_f64.powf(WITNESS_MAGNITUDE_EXPONENT / f64::from(degree));
     let (mut metric, mut sizes) = (vec![0.0; n * n], vec![0.0; n * n]);
     let mut shifted = vec![0.0; block.len() * block.len()];
-    for direction in &directions {
-        let length = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
-        if length == 0.0 {
+    for x in ray_states::<S>() {
+        let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+        S::metric_value(&x, &cleaned, &mut metric);
+        S::metric_value(&magnitude, &magnitudes, &mut sizes);
+        let rounding = largest_entry(&sizes, n, block);
+        let gram_unit = scale
+            * half
+                .iter()
+                .map(|e| monomial_scale(&magnitude, e).powi(2))
+                .sum::<f64>();
+        let threshold = 1e-9 * rounding.max(gram_unit);
+        // A Cholesky factor of K + threshold·I rules the state out
+        // cheaply (thousands of states per block); only where it fails
+        // is the eigenvalue computed.
+        let m = block.len();
+        for (a, &j) in block.iter().enumerate() {
+            for (b, &k) in block.iter().enumerate() {
+                shifted[a * m + b] = metric[j * n + k];
+            }
+            shifted[a * m + a] += threshold;
+        }
+        if !threshold.is_finite() || has_cholesky_factor(&mut shifted[..m * m], m) {
             continue;
         }
-        let mut radius = 0.5;
-        while radius <= largest_radius {
-            let x: Vec<f64> = direction.iter().map(|d| d / length * radius).collect();
-            let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
-            S::metric_value(&x, &cleaned, &mut metric);
-            S::metric_value(&magnitude, &magnitudes, &mut sizes);
-            let rounding = largest_entry(&sizes, n, block);
-            let gram_unit = scale
-                * half
-                    .iter()
-                    .map(|e| monomial_scale(&magnitude, e).powi(2))
-                    .sum::<f64>();
-            let threshold = 1e-9 * rounding.max(gram_unit);
-            radius *= 10_f64.sqrt();
-            // A Cholesky factor of K + threshold·I rules the state out
-            // cheaply (thousands of states per block); only where it fails
-            // is the eigenvalue computed.
-            let m = block.len();
-            for (a, &j) in block.iter().enumerate() {
-                for (b, &k) in block.iter().enumerate() {
-                    shifted[a * m + b] = metric[j * n + k];
-                }
-                shifted[a * m + a] += threshold;
-            }
-            if !threshold.is_finite() || has_cholesky_factor(&mut shifted[..m * m], m) {
-                continue;
-            }
-            let (eigenvalue, local) = smallest_eigen(block_matrix(&metric, n, block));
-            if eigenvalue.is_finite() && eigenvalue < -threshold {
-                return Some(Error::MetricNotPositive {
-                    what: what.to_owned(),
-                    eigenvalue,
-                    direction: embed(n, block, &local),
-                    state: Some(x),
-                });
-            }
+        let (eigenvalue, local) = smallest_eigen(block_matrix(&metric, n, block));
+        if eigenvalue.is_finite() && eigenvalue < -threshold {
+            return Some(not_positive(what, eigenvalue, (n, block, &local), Some(x)));
         }
     }
     None
@@ -1009,104 +1151,22 @@ fn ray_witness<S: MetriplecticSystem>(
 /// certified block: its threshold is 1e-9 of the same unit.
 const DESCENT_SHIFT: f64 = 1e-9;
 
+/// The smallest eigenvalue of K(x), each entry divided by the square root
+/// of its rows' rounding (each row's largest Σ|c_α x^α|, at least
+/// [`BALANCE_FLOOR`] of the largest row's), below −this is a violation: evaluating K rounds by about 1e-16 of that, so what is left
+/// is the metric's, not the arithmetic's.
+const EVALUATION_TOLERANCE: f64 = 1e-9;
+
 /// Starting states of [`descent_witness`] besides the region's centre.
 const DESCENT_STARTS: usize = 24;
-/// Gradient steps from each start.
-const DESCENT_STEPS: usize = 60;
 
-/// A state where the block's smallest eigenvalue is below −1e-9 times both
-/// its rounding there (the largest entry's Σ|c_α x^α|) and the unit in
-/// which the certificate bounds its shift, the largest coefficient in the
-/// certificate's coordinates times ‖Z((x − c)/ρ)‖² (the centre c and
-/// extents ρ of the region, 0 and 1 without one), found by descent.
-///
-/// The certificate's tolerance also allows a narrow band where K is
-/// negative: with K₀₀ = (x − 1000)² − 0.05 on a region of radius 3000,
-/// negative only for |x − 1000| < 0.22, E fell at 0.05·|∇E|² there, and
-/// no fixed set of states sees a band that narrow (a probe). From the
-/// centre and seeded states in the region's box (and twice and ten times
-/// as far), gradient steps with a backtracking line search lower the
-/// smallest eigenvalue of K with each entry divided by the square root of
-/// its diagonal entries' sizes: scale-free, so that the descent follows a
-/// small entry's dip rather than a large one's growth. The thresholds are
-/// those of [`ray_witness`], so no metric it accepts is refused unless a
-/// state shows a violation beyond both. With `within`, only states of that
-/// region are evaluated (a certificate on the region says nothing beyond).
-fn descent_witness<S: MetriplecticSystem>(
-    what: &str,
-    theta: &[f64],
-    block: &[usize],
-    within: Option<&Region>,
-) -> Option<Error> {
+/// The seeded starts of [`descent_witness`]: the region's centre (the
+/// origin without one) and states in its box, twice and ten times as far.
+fn descent_starts<S: MetriplecticSystem>() -> Vec<Vec<f64>> {
     let n = S::DIM;
-    let exponents = S::METRIC_EXPONENTS;
     let (centre, rho) = region_coordinates::<S>();
     let rho: Vec<f64> = rho.iter().map(|r| r.max(1.0)).collect();
     let centre = centre.unwrap_or_else(|| vec![0.0; n]);
-    // The certificate's unit: its largest coefficient in its coordinates.
-    let centred = Shift::new(exponents, centre.clone())
-        .map(|shift| shift.to_centred(theta))
-        .unwrap_or_else(|| theta.to_vec());
-    let m = exponents.len();
-    let certified_size = block_pairs(block)
-        .flat_map(|(_, _, j, k)| {
-            let pair = metric_pair_index(n, j, k);
-            (0..m).map(move |alpha| (pair, alpha))
-        })
-        .map(|(pair, alpha)| {
-            (centred[pair * m + alpha] * monomial_scale(&rho, exponents[alpha])).abs()
-        })
-        .fold(0.0_f64, f64::max);
-    let degree = metric_degree::<S>();
-    let half: Vec<&[u32]> = exponents
-        .iter()
-        .copied()
-        .filter(|e| 2 * e.iter().sum::<u32>() <= degree)
-        .collect();
-    let magnitudes: Vec<f64> = theta.iter().map(|c| c.abs()).collect();
-    let (mut metric, mut sizes) = (vec![0.0; n * n], vec![0.0; n * n]);
-    // The scale-free smallest eigenvalue, and where it is negative (K then
-    // is too: the scaling is a congruence) K's own with its direction and
-    // the threshold: an eigensolve of K only where it can show something.
-    type Violation = Option<(f64, Vec<f64>, f64)>;
-    let mut evaluate = |x: &[f64]| -> Option<(f64, Violation)> {
-        if within.is_some_and(|region| !region.contains(x)) {
-            return None;
-        }
-        S::metric_value(x, theta, &mut metric);
-        let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
-        S::metric_value(&magnitude, &magnitudes, &mut sizes);
-        let k = block_matrix(&metric, n, block);
-        let root: Vec<f64> = block
-            .iter()
-            .map(|&j| sizes[j * n + j].max(f64::MIN_POSITIVE).sqrt())
-            .collect();
-        let scaled = DMatrix::from_fn(k.nrows(), k.ncols(), |a, b| k[(a, b)] / (root[a] * root[b]));
-        let (scaled_lowest, _) = smallest_eigen(scaled);
-        if !scaled_lowest.is_finite() {
-            return None;
-        }
-        if scaled_lowest >= 0.0 {
-            return Some((scaled_lowest, None));
-        }
-        let rounding = largest_entry(&sizes, n, block);
-        let y: Vec<f64> = x
-            .iter()
-            .zip(&centre)
-            .zip(&rho)
-            .map(|((x, c), r)| ((x - c) / r).abs())
-            .collect();
-        let unit = certified_size
-            * half
-                .iter()
-                .map(|e| monomial_scale(&y, e).powi(2))
-                .sum::<f64>();
-        let threshold = 1e-9 * rounding.max(unit);
-        let (lowest, direction) = smallest_eigen(k);
-        let violation = (lowest.is_finite() && threshold.is_finite() && lowest < -threshold)
-            .then_some((lowest, direction, threshold));
-        Some((scaled_lowest, violation))
-    };
     let mut rng = ChaCha8Rng::seed_from_u64(0xde5c);
     let mut starts = vec![centre.clone()];
     for spread in [1.0, 2.0, 10.0] {
@@ -1118,6 +1178,193 @@ fn descent_witness<S: MetriplecticSystem>(
             );
         }
     }
+    starts
+}
+/// Gradient steps from each start.
+const DESCENT_STEPS: usize = 60;
+
+/// K(x)'s smallest eigenvalue and direction where K is negative beyond
+/// the rounding of evaluating it ([`Judge::at`]); `None` where it is not.
+type Violation = Option<(f64, Vec<f64>)>;
+
+/// Judges K at states against the rounding of evaluating it there.
+struct Judge<'a> {
+    theta: &'a [f64],
+    magnitudes: Vec<f64>,
+    block: &'a [usize],
+    /// θ with each entry's non-zero coefficients replaced by
+    /// [`SEARCH_NOISE`] times that entry's largest |θ|: evaluated at |x|,
+    /// how far noise in the coefficients can move each entry.
+    noise: Vec<f64>,
+    metric: Vec<f64>,
+    sizes: Vec<f64>,
+    moved: Vec<f64>,
+}
+
+impl<'a> Judge<'a> {
+    fn new<S: MetriplecticSystem>(theta: &'a [f64], block: &'a [usize]) -> Self {
+        let n = S::DIM;
+        let m = S::METRIC_EXPONENTS.len();
+        let mut noise = vec![0.0; theta.len()];
+        for (_, _, j, k) in block_pairs(block) {
+            let range = metric_pair_index(n, j, k) * m..(metric_pair_index(n, j, k) + 1) * m;
+            let largest = theta[range.clone()]
+                .iter()
+                .fold(0.0_f64, |l, c| l.max(c.abs()));
+            for (out, c) in noise[range.clone()].iter_mut().zip(&theta[range]) {
+                if *c != 0.0 {
+                    *out = SEARCH_NOISE * largest;
+                }
+            }
+        }
+        Self {
+            theta,
+            magnitudes: theta.iter().map(|c| c.abs()).collect(),
+            block,
+            noise,
+            metric: vec![0.0; n * n],
+            sizes: vec![0.0; n * n],
+            moved: vec![0.0; n * n],
+        }
+    }
+
+    /// The smallest eigenvalue of K(x) with each entry divided by the
+    /// square root of its rows' rounding (scale-free), and K's own where
+    /// that is below −[`EVALUATION_TOLERANCE`] (K then is negative too:
+    /// the scaling is a congruence) and K's is below what
+    /// [`SEARCH_NOISE`] in the coefficients can do; `None` where K is not
+    /// finite.
+    fn at<S: MetriplecticSystem>(&mut self, x: &[f64]) -> Option<(f64, Violation)> {
+        let (n, block) = (S::DIM, self.block);
+        S::metric_value(x, self.theta, &mut self.metric);
+        let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+        S::metric_value(&magnitude, &self.magnitudes, &mut self.sizes);
+        let k = block_matrix(&self.metric, n, block);
+        // Each row's rounding: its largest entry's Σ|c_α x^α|, so that an
+        // entry's own rounding is at most ε after the scaling; at least
+        // `BALANCE_FLOOR` of the largest row's, as when balancing, so that
+        // a zero row coupled at the searches' rounding stays acceptable.
+        let mut root: Vec<f64> = block
+            .iter()
+            .map(|&j| {
+                block
+                    .iter()
+                    .map(|&k| self.sizes[j * n + k])
+                    .fold(f64::MIN_POSITIVE, f64::max)
+            })
+            .collect();
+        let floor = BALANCE_FLOOR * root.iter().copied().fold(0.0_f64, f64::max);
+        root.iter_mut().for_each(|r| *r = r.max(floor).sqrt());
+        let scaled = DMatrix::from_fn(k.nrows(), k.ncols(), |a, b| k[(a, b)] / (root[a] * root[b]));
+        let (scaled_lowest, _) = smallest_eigen(scaled);
+        if !scaled_lowest.is_finite() {
+            return None;
+        }
+        if scaled_lowest >= -EVALUATION_TOLERANCE {
+            return Some((scaled_lowest, None));
+        }
+        // Also beyond what noise in the coefficients could do there: K
+        // plus each row's largest possible move on its diagonal is still
+        // indefinite. A classical metric, singular everywhere, has
+        // coefficients of 1e-17 where it has none, and its zero rows read
+        // them as their own terms.
+        S::metric_value(&magnitude, &self.noise, &mut self.moved);
+        let mut robust = k.clone();
+        for (a, &j) in block.iter().enumerate() {
+            robust[(a, a)] += block.iter().map(|&k| self.moved[j * n + k]).sum::<f64>();
+        }
+        if !(smallest_eigen(robust).0 < 0.0) {
+            return Some((scaled_lowest, None));
+        }
+        let (lowest, direction) = smallest_eigen(k);
+        let violation = (lowest.is_finite() && lowest < 0.0).then_some((lowest, direction));
+        Some((scaled_lowest, violation))
+    }
+}
+
+/// A searched metric's coefficients are off by up to about this fraction
+/// of each entry's largest (measured at 1e-17 to 1e-16 on the classical
+/// body's searched metric): a state is a violation only if K is still
+/// indefinite with each diagonal entry raised by what that noise in the
+/// row's non-zero coefficients can add there.
+const SEARCH_NOISE: f64 = 1e-14;
+
+/// [`Judge::at`] along the rays of [`ray_witness`]: a state far out where
+/// K is negative beyond the rounding of evaluating it, though within the
+/// certificate's unit there. 1 + 10⁻³a + a⁶b² is negative for a < −1000
+/// on b = 0, where it grows more slowly than ‖Z‖² ~ a⁸, and its
+/// certificate on all Gram rows needs a shift of 1e-20.
+fn far_witness<S: MetriplecticSystem>(what: &str, theta: &[f64], block: &[usize]) -> Option<Error> {
+    let n = S::DIM;
+    let mut judge = Judge::new::<S>(theta, block);
+    for x in ray_states::<S>() {
+        if let Some((_, Some((eigenvalue, direction)))) = judge.at::<S>(&x) {
+            return Some(not_positive(
+                what,
+                eigenvalue,
+                (n, block, &direction),
+                Some(x),
+            ));
+        }
+    }
+    None
+}
+
+/// The states [`ray_witness`] probes: along ±e_v, ±(1, …, 1) and
+/// `RAY_DIRECTIONS` seeded directions, at radii from ½, a factor √10
+/// apart, up to |x|^degree = 1e200.
+fn ray_states<S: MetriplecticSystem>() -> impl Iterator<Item = Vec<f64>> {
+    let n = S::DIM;
+    let mut rng = ChaCha8Rng::seed_from_u64(0x4a75);
+    let mut directions = axes_and_diagonals(n);
+    for _ in 0..RAY_DIRECTIONS {
+        directions.push((0..n).map(|_| rng.random_range(-1.0..1.0)).collect());
+    }
+    let largest_radius = 10_f64.powf(WITNESS_MAGNITUDE_EXPONENT / f64::from(metric_degree::<S>()));
+    directions.into_iter().flat_map(move |direction| {
+        let length = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
+        let unit: Vec<f64> = direction.iter().map(|d| d / length).collect();
+        std::iter::successors(Some(0.5), |r| Some(r * 10_f64.sqrt()))
+            .take_while(move |&r| r <= largest_radius && length > 0.0)
+            .map(move |r| unit.iter().map(|u| u * r).collect())
+    })
+}
+
+/// A state where K is negative beyond the rounding of evaluating it: its
+/// smallest eigenvalue with each entry divided by the square root of its
+/// rows' rounding (each row's largest Σ|c_α x^α|) below
+/// −[`EVALUATION_TOLERANCE`], found by descent from `starts`.
+///
+/// The certificate's tolerance also allows a narrow band where K is
+/// negative: with K₀₀ = (x − 1000)² − 0.05 on a region of radius 3000,
+/// negative only for |x − 1000| < 0.22, E fell at 0.05·|∇E|² there, and
+/// no fixed set of states sees a band that narrow (a probe). From each
+/// start (the Gram matrix's suspects, or [`descent_starts`]), gradient
+/// steps with a backtracking line search lower that scaled eigenvalue:
+/// scale-free, so that the descent follows a small entry's dip rather than
+/// a large one's growth. The threshold was 1e-9 of the certificate's unit
+/// too (its largest coefficient times ‖Z((x − c)/ρ)‖²), which far from the
+/// centre exceeds K's own terms: K = (q − 1000)² − δ passed at q = 1000
+/// for δ up to 2000 (a probe); now only negativity within 1e-9 of the
+/// terms K is evaluated from passes. With `within`, only states of that
+/// region are evaluated (a certificate on the region says nothing beyond).
+fn descent_witness<S: MetriplecticSystem>(
+    what: &str,
+    theta: &[f64],
+    block: &[usize],
+    within: Option<&Region>,
+    starts: Vec<Vec<f64>>,
+) -> Option<Error> {
+    let n = S::DIM;
+    let (_, rho) = region_coordinates::<S>();
+    let rho: Vec<f64> = rho.iter().map(|r| r.max(1.0)).collect();
+    let mut judge = Judge::new::<S>(theta, block);
+    let mut evaluate = |x: &[f64]| -> Option<(f64, Violation)> {
+        if within.is_some_and(|region| !region.contains(x)) {
+            return None;
+        }
+        judge.at::<S>(x)
+    };
     for start in starts {
         let mut x = start;
         let Some(mut current) = evaluate(&x) else {
@@ -1176,13 +1423,13 @@ fn descent_witness<S: MetriplecticSystem>(
                 break;
             }
         }
-        if let Some((eigenvalue, direction, _)) = current.1 {
-            return Some(Error::MetricNotPositive {
-                what: what.to_owned(),
+        if let Some((eigenvalue, direction)) = current.1 {
+            return Some(not_positive(
+                what,
                 eigenvalue,
-                direction: embed(n, block, &direction),
-                state: Some(x),
-            });
+                (n, block, &direction),
+                Some(x),
+            ));
         }
     }
     None
@@ -1239,17 +1486,23 @@ fn check_on_region<S: MetriplecticSystem>(
     let layout = Layout::of::<S>(S::SOS_REDUCED);
     layout.check::<S>()?;
     let states: Vec<usize> = (0..S::DIM).collect();
-    let check = |theta: &[f64]| {
-        let scale = theta.iter().fold(0.0_f64, |m, c| m.max(c.abs()));
+    // Certified on `certified` (θ or its balanced form); states are judged
+    // on K's own θ, as everywhere.
+    let check = |certified: &[f64]| {
+        let scale = certified.iter().fold(0.0_f64, |m, c| m.max(c.abs()));
         let region = Some(&certificate.region);
-        match certify_on_region::<S>(theta, &layout, scale) {
+        match certify_on_region::<S>(certified, &layout, scale) {
             // The tolerance also allows a narrow band where K is negative.
-            Ok(()) => match descent_witness::<S>(what, theta, &states, region) {
-                Some(error) => Err(error),
-                None => Ok(()),
-            },
-            Err(reason) => Err(region_witness::<S>(what, theta, certificate, scale)
-                .or_else(|| descent_witness::<S>(what, theta, &states, region))
+            Ok(()) => {
+                match descent_witness::<S>(what, theta, &states, region, descent_starts::<S>()) {
+                    Some(error) => Err(error),
+                    None => Ok(()),
+                }
+            }
+            Err(reason) => Err(region_witness::<S>(what, certified, certificate, scale)
+                .or_else(|| {
+                    descent_witness::<S>(what, theta, &states, region, descent_starts::<S>())
+                })
                 .unwrap_or(Error::MetricNotCertified {
                     what: what.to_owned(),
                     reason: format!("{reason}; K(x) ⪰ 0 is required on the region only"),
@@ -1364,8 +1617,8 @@ fn certify_on_region<S: MetriplecticSystem>(
         .map_err(|error| format!("the region certificate program failed: {error}"))?;
     let s = solution.coefficients()[0] * scale;
     let grams: Vec<(usize, usize)> = offsets.iter().copied().zip(sizes.iter().copied()).collect();
-    let verified = solution.status == SolveStatus::Solved
-        || verify(&matching, &grams, solution.coefficients());
+    let verified =
+        solution.status == SolveStatus::Solved || verify(&matching, &grams, solution.variables());
     if solution.status.is_usable() && verified && s <= CERTIFICATE_TOLERANCE * scale {
         Ok(())
     } else {
@@ -1506,25 +1759,31 @@ mod tests {
     }
 
     /// Within the certificate's shift tolerance (the shift is the square
-    /// of the Gram entry's error) but indefinite for |q| > 71: refused by
+    /// of the Gram entry's error) but indefinite for |q| > 1/√(k01² − 1)
+    /// (71 for k01 = 1.0001): refused by
     /// the smallest eigenvalue along a ray; the same metric at the edge of
     /// the cone (K01 = q, det K = 1) is certified.
     #[test]
     fn a_metric_the_shift_tolerance_passes_is_refused_where_it_is_indefinite() {
         let metric = |k01: f64| theta(&[(0, 1.0), (3, 1.0), (6 + 1, k01), (12, 1.0)]);
         check_metric::<Quadratic2d>("m", &metric(1.0)).unwrap();
-        // Indefinite beyond |q| = 224, but never by more than 1e-9 of the
-        // certificate's unit there: within the tolerance.
-        check_metric::<Quadratic2d>("m", &metric(1.00001)).unwrap();
-        for k01 in [1.0001, 1.001] {
+        // Indefinite beyond |q| = 2.2e6, by less than the rounding of
+        // evaluating K there: accepted.
+        check_metric::<Quadratic2d>("m", &metric(1.0 + 1e-13)).unwrap();
+        // Indefinite beyond |q| = 224, never by more than 1e-9 of the
+        // certificate's unit there, but by 3e-8 of K's own terms at
+        // q = 500 (eigenvalue −1.6e-5): accepted before the judgement on
+        // K's terms, refused now.
+        for k01 in [1.00001, 1.0001, 1.001] {
             match check_metric::<Quadratic2d>("m", &metric(k01)) {
                 Err(Error::MetricNotPositive {
                     eigenvalue,
                     state: Some(x),
                     ..
                 }) => {
+                    // Where K is indefinite: det K = 1 − (k01² − 1) q² < 0.
                     assert!(
-                        eigenvalue < 0.0 && x[0].abs() > 70.0,
+                        eigenvalue < 0.0 && x[0].abs() > 1.0 / (k01 * k01 - 1.0).sqrt(),
                         "{eigenvalue} at {x:?}"
                     );
                 }
