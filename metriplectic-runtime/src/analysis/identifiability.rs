@@ -1100,6 +1100,38 @@ fn norm(v: &[f64]) -> f64 {
 mod tests {
     use super::*;
 
+    /// A model off the options' gauge is refused: a probe's tr K(0) = 3
+    /// under a gauge of 1 was reported with the scale "fixed by the gauge".
+    #[test]
+    fn a_model_off_its_gauge_is_refused() {
+        use crate::test_system::Quadratic2d;
+        use crate::{Dataset, Gauge, Model, SearchOptions};
+        // The identity metric: pairs (0,0) and (1,1) at offsets 0 and 12.
+        let mut theta = vec![0.0; Quadratic2d::metric_coefficient_count()];
+        theta[0] = 1.0;
+        theta[12] = 1.0;
+        let entropy = vec![0.0; Quadratic2d::entropy_coefficient_count()];
+        let model = Model::<Quadratic2d>::new(entropy, theta).unwrap();
+        let states: Vec<f64> = (0..40).map(|k| (0.37 * k as f64).sin()).collect();
+        let mut derivatives = vec![0.0; states.len()];
+        for (x, dx) in states.chunks_exact(2).zip(derivatives.chunks_exact_mut(2)) {
+            model.vector_field(x, dx).unwrap();
+        }
+        let data = Dataset::from_flat(2, states, derivatives).unwrap();
+        let options = |trace: f64| IdentifiabilityOptions {
+            search: SearchOptions {
+                gauge: Some(Gauge::MetricTrace(trace)),
+                ..SearchOptions::default()
+            },
+            ..IdentifiabilityOptions::default()
+        };
+        let err = identifiability(&model, &data, &options(1.0))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("the gauge fixes tr K(0) = 1, they give 2"), "{err}");
+        identifiability(&model, &data, &options(2.0)).unwrap();
+    }
+
     #[test]
     fn the_text_of_many_long_directions_is_abbreviated_and_counts_the_rest() {
         let long = (0..200)

@@ -1487,6 +1487,7 @@ mod tests {
             other => panic!("unexpected {other}"),
         }
         assert!(err.to_string().contains("smaller step"), "{err}");
+        assert!(err.to_string().contains("at |x| = 1 "), "{err}");
         let newton = run(&model, &[1.0, 0.0], 30.0, 10.0);
         assert!(largest_decrease_in_ulps(&newton.free_energy) <= 4.0);
     }
