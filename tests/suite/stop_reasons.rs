@@ -74,6 +74,20 @@ fn a_batch_of_one_does_not_converge_on_its_own_fit() {
     if result.stop_reason == StopReason::Converged {
         assert!(error < 1e-6, "converged with relative error {error:e}");
     }
+    // Each batch's 2 equations cannot determine the model: said (a probe's
+    // batch of 1 ended 19 times off on held-out data without a word).
+    assert!(
+        result.warnings.iter().any(|w| matches!(
+            w,
+            IdentifyWarning::BatchUnderdetermined {
+                batch: 1,
+                equations: 2,
+                ..
+            }
+        )),
+        "{:?}",
+        result.warnings
+    );
 }
 
 #[test]

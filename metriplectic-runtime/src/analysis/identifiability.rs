@@ -1128,7 +1128,10 @@ mod tests {
         let err = identifiability(&model, &data, &options(1.0))
             .unwrap_err()
             .to_string();
-        assert!(err.contains("the gauge fixes tr K(0) = 1, they give 2"), "{err}");
+        assert!(
+            err.contains("the gauge fixes tr K(0) = 1, they give 2"),
+            "{err}"
+        );
         identifiability(&model, &data, &options(2.0)).unwrap();
     }
 

@@ -250,10 +250,13 @@ pub(super) fn start_sample<S: MetriplecticSystem, D: IdentificationData>(
     let available = pool.equation_count();
     // Ten equations per coefficient keep the start's L1 fit overdetermined.
     let enough = (10 * S::entropy_coefficient_count()).div_ceil(S::DIM);
+    // Never below `enough`, even for a smaller minibatch (a probe's batch
+    // of 1 fitted the start to one sample).
     let wanted = config
         .batch_size
         .unwrap_or(available)
-        .min(config.start_samples.max(enough));
+        .min(config.start_samples)
+        .max(enough);
     if wanted >= available {
         return Ok(None);
     }

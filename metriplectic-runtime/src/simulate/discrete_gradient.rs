@@ -291,8 +291,15 @@ fn integrate_with<S: MetriplecticSystem>(
     // The scheme is built on differences of E: where E's rounding unit is
     // below the smallest normal f64, E keeps too few digits to resolve
     // them, and the steps froze at x0 (states of 1e-160 in a quadratic E)
-    // while reporting a free energy that never decreased.
-    if energy.size * stepper.terms * f64::EPSILON < f64::MIN_POSITIVE
+    // while reporting a free energy that never decreased. Where E's terms
+    // vanish at x0 only (all of them are 0 at the origin) the first step
+    // leaves it: judged at the explicit Euler guess too (a probe's start at
+    // (0, 0), with ẋ = (0, −2) there, was refused).
+    let terms = stepper.terms;
+    let resolvable = |size: f64| size * terms * f64::EPSILON >= f64::MIN_POSITIVE;
+    let euler: Vec<f64> = x.iter().zip(&field).map(|(x, f)| x + step * f).collect();
+    if !resolvable(energy.size)
+        && !resolvable(stepper.energy(&euler).size)
         && field.iter().any(|&v| v != 0.0)
     {
         return Err(invalid(
@@ -1415,6 +1422,19 @@ mod tests {
         let err = simulate(&model, &[0.3e-160, 0.4e-160], 0.0, 1.0, &options).unwrap_err();
         println!("{err}");
         assert!(err.to_string().contains("subnormal"), "{err}");
+        // At a state where E's terms all vanish but the field does not, the
+        // first step leaves it: integrated (a probe's start at the origin
+        // was refused).
+        let tilted = Model::<Decay>::new(
+            vec![1.0, -1.0, -1.0, 0.0, -1.0],
+            model.metric_coefficients().to_vec(),
+        )
+        .unwrap();
+        let mut field = [0.0; 2];
+        tilted.vector_field(&[0.0, 0.0], &mut field).unwrap();
+        assert!(field.iter().any(|v| *v != 0.0), "{field:?}");
+        let sim = simulate(&tilted, &[0.0, 0.0], 0.0, 1.0, &options).unwrap();
+        assert!(sim.energy.is_non_decreasing(), "{:?}", sim.energy);
     }
 
     #[test]
