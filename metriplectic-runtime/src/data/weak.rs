@@ -301,10 +301,16 @@ impl WeakDataset {
         let times = &trajectory.times()[start..start + form.window];
         let (a, b) = (times[0], times[times.len() - 1]);
         let p = form.power as i32;
-        // φ(t) = ((t − a)(b − t))^p and φ′, before normalisation.
-        let phi = |t: f64| ((t - a) * (b - t)).powi(p);
+        // φ(t) = u^p with u = (t − a)(b − t)/half² ∈ [0, 1], and φ′; the
+        // weights and slopes are divided by ∫φ below, so the scale is
+        // free. Unscaled, ((t − a)(b − t))^16 overflowed for windows of
+        // 1e11 time units (nanosecond stamps 10 s apart) and underflowed
+        // at spacings of 1e-30 (a probe).
+        let half = 0.5 * (b - a);
+        let u = |t: f64| ((t - a) / half) * ((b - t) / half);
+        let phi = |t: f64| u(t).powi(p);
         let dphi =
-            |t: f64| f64::from(form.power) * ((t - a) * (b - t)).powi(p - 1) * (a + b - 2.0 * t);
+            |t: f64| f64::from(form.power) * u(t).powi(p - 1) * (((a + b - 2.0 * t) / half) / half);
         // Product integration: x and f(x) are represented between samples
         // by local polynomials of degree d, and φ and φ′ are integrated
         // exactly against them (Gauss–Legendre with enough points for
@@ -866,5 +872,42 @@ mod tests {
         let error =
             WeakDataset::from_trajectories(&[circle(t, 1e308)], &WeakForm::default()).unwrap_err();
         assert!(error.to_string().contains("weak-form target"), "{error}");
+    }
+
+    /// The test function is scaled to [0, 1] on each window: with power 16
+    /// a probe's spacing of 1e10 (nanosecond stamps 10 s apart) had "no
+    /// usable test-function integral (inf)", and 1e-30 underflowed. The
+    /// equations are the same in any time unit: targets scale by 1/h.
+    #[test]
+    fn equations_do_not_depend_on_the_time_unit() {
+        let form = WeakForm {
+            power: 16,
+            ..WeakForm::default()
+        };
+        let unit: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        let reference =
+            WeakDataset::from_trajectories(&[circle(unit.clone(), 1.0)], &form).unwrap();
+        for h in [1e10, 1e-30, 1e150] {
+            // The same states, at times in another unit.
+            let circle = circle(unit.clone(), 1.0);
+            let t: Vec<f64> = unit.iter().map(|t| t * h).collect();
+            let scaled =
+                Trajectory::new(circle.names().to_vec(), t, circle.states().to_vec(), None)
+                    .unwrap();
+            let data = WeakDataset::from_trajectories(&[scaled], &form).unwrap();
+            for (a, b) in data.targets().iter().zip(reference.targets()) {
+                assert!(
+                    (a * h - b).abs() <= 1e-9 * (1.0 + b.abs()),
+                    "h = {h:e}: {} vs {b}",
+                    a * h
+                );
+            }
+            for (a, b) in data.weights.iter().zip(&reference.weights) {
+                assert!(
+                    (a - b).abs() <= 1e-9 * (1.0 + b.abs()),
+                    "h = {h:e}: {a} vs {b}"
+                );
+            }
+        }
     }
 }
