@@ -645,7 +645,8 @@ fn gram_suspects(
             let Some(zero) = constant.and_then(|beta| position(a, beta)) else {
                 continue;
             };
-            if !(v[zero].abs() > 1e-8 * norm) {
+            let readable = v[zero].abs() > 1e-8 * norm;
+            if !readable {
                 continue;
             }
             let y: Vec<f64> = (0..n)
@@ -1273,7 +1274,8 @@ impl<'a> Judge<'a> {
         for (a, &j) in block.iter().enumerate() {
             robust[(a, a)] += block.iter().map(|&k| self.moved[j * n + k]).sum::<f64>();
         }
-        if !(smallest_eigen(robust).0 < 0.0) {
+        let robust_lowest = smallest_eigen(robust).0;
+        if robust_lowest.is_nan() || robust_lowest >= 0.0 {
             return Some((scaled_lowest, None));
         }
         let (lowest, direction) = smallest_eigen(k);
