@@ -355,24 +355,32 @@ impl WeakDataset {
         }
         let mut target = vec![0.0; n];
         let first_weight = self.weights.len();
+        // Σⱼ φ′ⱼ = ∫φ′ = 0, so the target is formed from xⱼ − x₀: an offset
+        // (a temperature of 300 ± 2) no longer leaves its rounding in it,
+        // and states at rest give a target of exactly 0 (it was 3e-15, which
+        // the fit and the warnings read as signal; a probe).
+        let origin = trajectory.state(start);
         for (j, (weight, slope)) in weights.iter().zip(&slopes).enumerate() {
             let x = trajectory.state(start + j);
             let slope = -slope / integral;
-            target.iter_mut().zip(x).for_each(|(y, v)| *y += slope * v);
+            target
+                .iter_mut()
+                .zip(x.iter().zip(origin))
+                .for_each(|(y, (v, o))| *y += slope * (v - o));
             let weight = weight / integral;
             if weight != 0.0 {
                 self.samples.push(base + start + j);
                 self.weights.push(weight);
             }
         }
-        // Σ slope·x overflows for states near f64::MAX, and the weights for
+        // Σ slope·(x − x₀) overflows for states f64::MAX apart, and the weights for
         // extreme time spacings: say so rather than store inf or NaN.
         if let Some((component, value)) = target.iter().enumerate().find(|(_, y)| !y.is_finite()) {
             return Err(invalid(
                 "weak-form target",
                 format!(
                     "component {component} of the window of samples {start}..={} (t = {a:e} … {b:e}) \
-                     is {value} (states too large for Σ φ′x to be represented)",
+                     is {value} (states too far apart for Σ φ′ⱼ(xⱼ − x₀) to be represented)",
                     start + form.window - 1
                 ),
             ));
@@ -866,11 +874,20 @@ mod tests {
             .expect("uneven but finite spacing");
         assert!(data.targets().iter().all(|v| v.is_finite()));
         assert!(data.weights.iter().all(|v| v.is_finite()));
-        // States near f64::MAX: Σ φ′x overflows, and that is an error
-        // naming the quantity, not an infinite target.
+        // States near f64::MAX on a smooth path give finite targets (the
+        // sum runs over differences to the window's first state)…
         let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
-        let error =
-            WeakDataset::from_trajectories(&[circle(t, 1e308)], &WeakForm::default()).unwrap_err();
+        let data =
+            WeakDataset::from_trajectories(&[circle(t.clone(), 1e308)], &WeakForm::default())
+                .unwrap();
+        assert!(data.targets().iter().all(|v| v.is_finite()));
+        // …but a jump across it overflows Σ φ′(x − x₀), and that is an error
+        // naming the quantity, not an infinite target.
+        let x: Vec<f64> = (0..40)
+            .flat_map(|k| [if k < 20 { 1.7e308 } else { -1.7e308 }, 0.0])
+            .collect();
+        let jump = Trajectory::new(vec!["q".into(), "p".into()], t, x, None).unwrap();
+        let error = WeakDataset::from_trajectories(&[jump], &WeakForm::default()).unwrap_err();
         assert!(error.to_string().contains("weak-form target"), "{error}");
     }
 
@@ -909,5 +926,29 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Targets are formed from differences to the window's first state:
+    /// an offset changes nothing, and states at rest give exactly 0.
+    #[test]
+    fn offsets_leave_the_targets_unchanged_and_rest_gives_zero() {
+        let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
+        let base = circle(t.clone(), 1.0);
+        let reference =
+            WeakDataset::from_trajectories(&[base.clone()], &WeakForm::default()).unwrap();
+        let shifted: Vec<f64> = base.states().iter().map(|x| x + 1e8).collect();
+        let offset = Trajectory::new(base.names().to_vec(), t.clone(), shifted, None).unwrap();
+        let data = WeakDataset::from_trajectories(&[offset], &WeakForm::default()).unwrap();
+        for (a, b) in data.targets().iter().zip(reference.targets()) {
+            // Only the states' own rounding at 1e8 (1.5e-8) remains.
+            assert!((a - b).abs() < 1e-6, "{a} vs {b}");
+        }
+        let rest = Trajectory::new(base.names().to_vec(), t, vec![0.3; 80], None).unwrap();
+        let data = WeakDataset::from_trajectories(&[rest], &WeakForm::default()).unwrap();
+        assert!(
+            data.targets().iter().all(|y| *y == 0.0),
+            "{:?}",
+            data.targets()
+        );
     }
 }
