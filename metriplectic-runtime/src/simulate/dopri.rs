@@ -67,7 +67,8 @@ pub enum OutputTimes {
     /// The initial time and every accepted step (the default).
     #[default]
     Steps,
-    /// t₀, t₀ + Δ, t₀ + 2Δ, … up to t_end (Δ > 0), from the dense output.
+    /// t₀, t₀ + Δ, t₀ + 2Δ, … up to t_end (0 < Δ ≤ t_end − t₀; t_end
+    /// itself only where it is a multiple of Δ), from the dense output.
     Interval(f64),
     /// These times (finite, strictly increasing, within [t₀, t_end]), from the
     /// dense output.
@@ -532,6 +533,20 @@ pub(super) fn validate_output(dim: usize, t0: f64, t_end: f64, output: &OutputTi
                     format!("{}: must be finite and > 0", Num(*dt)),
                 ));
             }
+            // Only t0 would be output, and the energy check would compare
+            // nothing (a probe's Interval(5) over [0, 1]).
+            if *dt > t_end - t0 {
+                return Err(invalid(
+                    "output interval",
+                    format!(
+                        "{} is longer than the interval [{}, {}]: only t0 would be output; use \
+                         OutputTimes::Times(vec![t_end]) or OutputTimes::Steps for the end state",
+                        Num(*dt),
+                        Num(t0),
+                        Num(t_end)
+                    ),
+                ));
+            }
             let outputs = (t_end - t0) / dt;
             if outputs * per_output > MAX_OUTPUT_VALUES {
                 return Err(invalid(
@@ -649,6 +664,11 @@ mod tests {
         )
         .unwrap();
         assert_eq!(sol.times.len(), 5);
+        // An output interval longer than the interval outputs t0 alone.
+        let err = validate_output(1, 0.0, 1.0, &OutputTimes::Interval(5.0))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("only t0 would be output"), "{err}");
         let err = validate_tolerances(&IntegratorOptions {
             rtol: 1e-16,
             ..IntegratorOptions::default()
