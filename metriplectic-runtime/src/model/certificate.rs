@@ -147,6 +147,17 @@ fn check_state_dependent_block<S: MetriplecticSystem>(
     } = certify_block::<S>(theta, block, scale);
     // Where the Gram matrix points first: cheap, and where the metric is
     // lowest against the certificate's unit.
+    // A suspect where K is clearly positive (its scaled smallest
+    // eigenvalue above `SUSPECT_MARGIN`) is not descended from: searched
+    // metrics' suspects mostly are, and each descent costs hundreds of
+    // eigensolves.
+    let suspects: Vec<Vec<f64>> = {
+        let mut judge = Judge::new::<S>(own, block);
+        suspects
+            .into_iter()
+            .filter(|x| !judge.clear::<S>(x, SUSPECT_MARGIN))
+            .collect()
+    };
     let at_suspects = || {
         descent_witness::<S>(what, own, block, None, suspects.clone())
             .or_else(|| far_witness::<S>(what, own, block))
@@ -605,6 +616,10 @@ struct Certification {
 /// tolerance anyway (a zero row coupled at the searches' rounding, 1e-9
 /// of the scale, stays acceptable). Beyond it the refusal is final.
 const SEARCH_ROUNDING: f64 = 1e-4;
+
+/// A suspect of [`gram_suspects`] where K's scaled smallest eigenvalue is
+/// above this is not descended from.
+const SUSPECT_MARGIN: f64 = 1e-3;
 
 /// Eigenvectors of a Gram matrix taken as suspects: at most this many, the
 /// lowest.
@@ -1237,10 +1252,44 @@ impl<'a> Judge<'a> {
     /// finite.
     fn at<S: MetriplecticSystem>(&mut self, x: &[f64]) -> Option<(f64, Violation)> {
         let (n, block) = (S::DIM, self.block);
+        let scaled = self.scaled::<S>(x);
+        let k = block_matrix(&self.metric, n, block);
+        let (scaled_lowest, _) = smallest_eigen(scaled);
+        if !scaled_lowest.is_finite() {
+            return None;
+        }
+        if scaled_lowest >= -EVALUATION_TOLERANCE {
+            return Some((scaled_lowest, None));
+        }
+        // Also beyond what noise in the coefficients could do there: K
+        // plus each row's largest possible move on its diagonal is still
+        // indefinite. A classical metric, singular everywhere, has
+        // coefficients of 1e-17 where it has none, and its zero rows read
+        // them as their own terms.
+        let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+        S::metric_value(&magnitude, &self.noise, &mut self.moved);
+        let mut robust = k.clone();
+        for (a, &j) in block.iter().enumerate() {
+            robust[(a, a)] += block.iter().map(|&k| self.moved[j * n + k]).sum::<f64>();
+        }
+        let robust_lowest = smallest_eigen(robust).0;
+        if robust_lowest.is_nan() || robust_lowest >= 0.0 {
+            return Some((scaled_lowest, None));
+        }
+        let (lowest, direction) = smallest_eigen(k);
+        let violation = (lowest.is_finite() && lowest < 0.0).then_some((lowest, direction));
+        Some((scaled_lowest, violation))
+    }
+}
+
+impl Judge<'_> {
+    /// K(x) with entry (a, b) divided by √(D_a D_b), D_a row a's rounding;
+    /// leaves K(x) in `metric` and the entries' sizes in `sizes`.
+    fn scaled<S: MetriplecticSystem>(&mut self, x: &[f64]) -> DMatrix<f64> {
+        let (n, block) = (S::DIM, self.block);
         S::metric_value(x, self.theta, &mut self.metric);
         let magnitude: Vec<f64> = x.iter().map(|v| v.abs()).collect();
         S::metric_value(&magnitude, &self.magnitudes, &mut self.sizes);
-        let k = block_matrix(&self.metric, n, block);
         // Each row's rounding: its largest entry's Σ|c_α x^α|, so that an
         // entry's own rounding is at most ε after the scaling; at least
         // `BALANCE_FLOOR` of the largest row's, as when balancing, so that
@@ -1256,31 +1305,24 @@ impl<'a> Judge<'a> {
             .collect();
         let floor = BALANCE_FLOOR * root.iter().copied().fold(0.0_f64, f64::max);
         root.iter_mut().for_each(|r| *r = r.max(floor).sqrt());
-        let scaled = DMatrix::from_fn(k.nrows(), k.ncols(), |a, b| k[(a, b)] / (root[a] * root[b]));
-        let (scaled_lowest, _) = smallest_eigen(scaled);
-        if !scaled_lowest.is_finite() {
-            return None;
+        let metric = &self.metric;
+        DMatrix::from_fn(block.len(), block.len(), |a, b| {
+            metric[block[a] * n + block[b]] / (root[a] * root[b])
+        })
+    }
+
+    /// Whether the scaled K(x) minus `margin`·I has a Cholesky factor (is
+    /// positive definite): a cheap test that rules a state out before any
+    /// eigenvalue is computed (an eigensolve per ray state doubled the
+    /// rigid-body drag example's time).
+    fn clear<S: MetriplecticSystem>(&mut self, x: &[f64], margin: f64) -> bool {
+        let mut scaled = self.scaled::<S>(x);
+        let m = scaled.nrows();
+        for a in 0..m {
+            scaled[(a, a)] -= margin;
         }
-        if scaled_lowest >= -EVALUATION_TOLERANCE {
-            return Some((scaled_lowest, None));
-        }
-        // Also beyond what noise in the coefficients could do there: K
-        // plus each row's largest possible move on its diagonal is still
-        // indefinite. A classical metric, singular everywhere, has
-        // coefficients of 1e-17 where it has none, and its zero rows read
-        // them as their own terms.
-        S::metric_value(&magnitude, &self.noise, &mut self.moved);
-        let mut robust = k.clone();
-        for (a, &j) in block.iter().enumerate() {
-            robust[(a, a)] += block.iter().map(|&k| self.moved[j * n + k]).sum::<f64>();
-        }
-        let robust_lowest = smallest_eigen(robust).0;
-        if robust_lowest.is_nan() || robust_lowest >= 0.0 {
-            return Some((scaled_lowest, None));
-        }
-        let (lowest, direction) = smallest_eigen(k);
-        let violation = (lowest.is_finite() && lowest < 0.0).then_some((lowest, direction));
-        Some((scaled_lowest, violation))
+        let mut packed: Vec<f64> = scaled.transpose().iter().copied().collect();
+        packed.iter().all(|v| v.is_finite()) && has_cholesky_factor(&mut packed, m)
     }
 }
 
@@ -1300,6 +1342,9 @@ fn far_witness<S: MetriplecticSystem>(what: &str, theta: &[f64], block: &[usize]
     let n = S::DIM;
     let mut judge = Judge::new::<S>(theta, block);
     for x in ray_states::<S>() {
+        if judge.clear::<S>(&x, -EVALUATION_TOLERANCE) {
+            continue;
+        }
         if let Some((_, Some((eigenvalue, direction)))) = judge.at::<S>(&x) {
             return Some(not_positive(
                 what,
