@@ -935,7 +935,8 @@ mod tests {
         let t: Vec<f64> = (0..40).map(|k| 0.05 * k as f64).collect();
         let base = circle(t.clone(), 1.0);
         let reference =
-            WeakDataset::from_trajectories(&[base.clone()], &WeakForm::default()).unwrap();
+            WeakDataset::from_trajectories(std::slice::from_ref(&base), &WeakForm::default())
+                .unwrap();
         let shifted: Vec<f64> = base.states().iter().map(|x| x + 1e8).collect();
         let offset = Trajectory::new(base.names().to_vec(), t.clone(), shifted, None).unwrap();
         let data = WeakDataset::from_trajectories(&[offset], &WeakForm::default()).unwrap();
