@@ -145,8 +145,6 @@ fn check_state_dependent_block<S: MetriplecticSystem>(
     let Certification {
         shift, suspects, ..
     } = certify_block::<S>(theta, block, scale);
-    // Where the Gram matrix points first: cheap, and where the metric is
-    // lowest against the certificate's unit.
     // A suspect where K is clearly positive (its scaled smallest
     // eigenvalue above `SUSPECT_MARGIN`) is not descended from: searched
     // metrics' suspects mostly are, and each descent costs hundreds of
@@ -158,7 +156,10 @@ fn check_state_dependent_block<S: MetriplecticSystem>(
             .filter(|x| !judge.clear::<S>(x, SUSPECT_MARGIN))
             .collect()
     };
-    let at_suspects = || {
+    // Judged against K's own terms, first where the Gram matrix points
+    // (cheap, and where K is lowest against the certificate's unit), then
+    // along the rays.
+    let strict_witness = || {
         descent_witness::<S>(what, own, block, None, suspects.clone())
             .or_else(|| far_witness::<S>(what, own, block))
     };
@@ -166,7 +167,7 @@ fn check_state_dependent_block<S: MetriplecticSystem>(
         Ok(shift) => shift,
         // A state that shows it, near the origin or far out.
         Err(reason) => {
-            return Err(at_suspects()
+            return Err(strict_witness()
                 .or_else(|| witness::<S>(what, theta, block, scale))
                 .or_else(|| vertex_witness::<S>(what, theta, block, scale))
                 .or_else(|| ray_witness::<S>(what, theta, block, scale))
@@ -184,7 +185,7 @@ fn check_state_dependent_block<S: MetriplecticSystem>(
     // suspects are always tried; the seeded descent (a third of the drag
     // examples' time) only above `DESCENT_SHIFT`: searched metrics sit at
     // shifts near 1e-12.
-    match at_suspects()
+    match strict_witness()
         .or_else(|| vertex_witness::<S>(what, theta, block, scale))
         .or_else(|| ray_witness::<S>(what, theta, block, scale))
         .or_else(|| {
